@@ -1,0 +1,174 @@
+"""The FlexibleBody data model (theory section 2): invariants, modal data, units, provenance."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import scipy.sparse as sp
+
+from .fe.mesh import Mesh
+from .invariants import ShapeIntegrals, principal_axes
+from .units import TMM, Units, factor
+
+MASS_KINDS = ("consistent", "lumped", "unknown")
+
+
+def _frozen(a):
+    if a is None:
+        return None
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where a body came from and how its invariants were computed."""
+
+    source: str = ""
+    mass_matrix: str = "unknown"  # consistent | lumped | unknown
+    method: str = "nodal sums with the scalar mass matrix (theory section 3)"
+    notes: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        if self.mass_matrix not in MASS_KINDS:
+            raise ValueError(f"mass_matrix must be one of {MASS_KINDS}, got {self.mass_matrix!r}")
+
+    def with_note(self, note: str) -> "Provenance":
+        return replace(self, notes=(*self.notes, note))
+
+
+@dataclass(frozen=True)
+class ModalFE:
+    """Nodal FE data of a body: mesh, scalar mass Ms (n x n), modes Phi (n, 3, nf), optional K and stress."""
+
+    mesh: Mesh
+    Ms: sp.csr_array
+    Phi: np.ndarray
+    K: sp.csr_array | None = None
+    stress_nodal: np.ndarray | None = None  # von Mises (n, nf) per unit modal coordinate
+
+    def __post_init__(self):
+        object.__setattr__(self, "Phi", _frozen(self.Phi))
+        object.__setattr__(self, "stress_nodal", _frozen(self.stress_nodal))
+
+    def max_deflection(self) -> np.ndarray:
+        """Largest nodal displacement magnitude of each mode at unit modal coordinate (nf,)."""
+        return np.sqrt(np.einsum("ikp,ikp->ip", self.Phi, self.Phi)).max(axis=0)
+
+    def transformed(self, c: np.ndarray, R: np.ndarray) -> "ModalFE":
+        """Points x' = R^T (x - c), mode components S' = R^T S, K' = T^T K T with T = kron(1, R)."""
+        mesh = Mesh((self.mesh.points - c) @ R, dict(self.mesh.cells))
+        Phi = np.einsum("ak,iap->ikp", R, self.Phi)
+        K = self.K
+        if K is not None:
+            T = sp.kron(sp.eye_array(self.mesh.n_nodes), R, format="csr")
+            K = sp.csr_array(T.T @ K @ T)
+        return replace(self, mesh=mesh, Phi=Phi, K=K)
+
+    def converted(self, src: Units, dst: Units) -> "ModalFE":
+        mesh = Mesh(self.mesh.points * factor(src, dst, "length"), dict(self.mesh.cells))
+        return ModalFE(
+            mesh=mesh,
+            Ms=self.Ms * factor(src, dst, "mass"),
+            Phi=self.Phi * factor(src, dst, "mode"),
+            K=None if self.K is None else self.K * factor(src, dst, "stiffness"),
+            stress_nodal=None if self.stress_nodal is None
+            else self.stress_nodal * factor(src, dst, "modal_stress"),
+        )
+
+
+@dataclass(frozen=True)
+class FlexibleBody:
+    """One flexible body: shape integrals, eigenvalues lambda_p = Omega_p^2, modal stress, units.
+
+    ``sigma_max[p]`` is the largest von Mises stress of mode p at unit modal
+    coordinate (theory section 6), in the body's stress units per unit q.
+    """
+
+    name: str
+    integrals: ShapeIntegrals
+    eigenvalues: np.ndarray
+    units: Units = TMM
+    sigma_max: np.ndarray | None = None
+    provenance: Provenance = field(default_factory=Provenance)
+    fe: ModalFE | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "eigenvalues", _frozen(self.eigenvalues))
+        object.__setattr__(self, "sigma_max", _frozen(self.sigma_max))
+        nf = self.integrals.nf
+        if self.eigenvalues.shape != (nf,):
+            raise ValueError(f"eigenvalues: expected shape ({nf},), got {self.eigenvalues.shape}")
+        if self.sigma_max is not None and self.sigma_max.shape != (nf,):
+            raise ValueError(f"sigma_max: expected shape ({nf},), got {self.sigma_max.shape}")
+        if self.fe is not None and self.fe.Phi.shape[2] != nf:
+            raise ValueError(f"modes: expected {nf} modes, got {self.fe.Phi.shape[2]}")
+
+    # --- derived quantities -------------------------------------------------
+    @property
+    def nf(self) -> int:
+        return self.integrals.nf
+
+    @property
+    def mass(self) -> float:
+        return self.integrals.mass
+
+    @property
+    def com(self) -> np.ndarray:
+        return self.integrals.com
+
+    @property
+    def I0(self) -> np.ndarray:
+        return self.integrals.I0()
+
+    @property
+    def W1(self) -> np.ndarray:
+        return self.integrals.W1()
+
+    @property
+    def W2(self) -> np.ndarray:
+        return self.integrals.W2()
+
+    @property
+    def W3(self) -> np.ndarray:
+        return self.integrals.W3()
+
+    @property
+    def frequencies_hz(self) -> np.ndarray:
+        """Eigenfrequencies sqrt(lambda_p) / (2 pi), in 1/time unit of the body."""
+        return np.sqrt(np.abs(self.eigenvalues)) * np.sign(self.eigenvalues) / (2 * np.pi)
+
+    def largest_dimension(self) -> float:
+        """Largest extent of the mesh, or of the box with the same mass and principal inertia."""
+        if self.fe is not None:
+            return self.fe.mesh.largest_dimension()
+        J = self.integrals.shifted(self.com)
+        second = np.linalg.eigvalsh(J.I)
+        return float(np.sqrt(12 * np.clip(second, 0, None).max() / self.mass))
+
+    # --- transformations ----------------------------------------------------
+    def in_principal_frame(self) -> tuple["FlexibleBody", np.ndarray, np.ndarray]:
+        """The body with its frame moved to the CoM and turned to the principal axes (theory section 4).
+
+        Returns (body, c, R): old CoM position c and the rotation R whose
+        columns are the new axes in the old frame.
+        """
+        c = self.com
+        shifted = self.integrals.shifted(c)
+        R = principal_axes(shifted.I0())
+        fe = None if self.fe is None else self.fe.transformed(c, R)
+        body = replace(self, integrals=shifted.rotated(R), fe=fe)
+        return body, c, R
+
+    def converted(self, units: Units) -> "FlexibleBody":
+        """The same body in other units; every conversion factor is exact up to one rounding."""
+        src = self.units
+        return replace(
+            self,
+            units=units,
+            integrals=self.integrals.converted(src, units),
+            eigenvalues=self.eigenvalues * factor(src, units, "eigenvalue"),
+            sigma_max=None if self.sigma_max is None else self.sigma_max * factor(src, units, "modal_stress"),
+            fe=None if self.fe is None else self.fe.converted(src, units),
+        )

@@ -1,0 +1,15 @@
+"""User-facing errors: one line naming the file, the field and what was expected."""
+from __future__ import annotations
+
+
+class FFRFError(Exception):
+    """An error the CLI reports as one line with exit code 2."""
+
+
+class BodyFileError(FFRFError):
+    """A body file that cannot be read: which file, which field, what was expected."""
+
+    def __init__(self, path, field: str, expected: str, got: str | None = None):
+        self.path, self.field, self.expected, self.got = str(path), field, expected, got
+        text = f"{path}: {field}: expected {expected}"
+        super().__init__(text + (f", got {got}" if got is not None else ""))

@@ -1,0 +1,104 @@
+"""Solid meshes and the structured hexahedral generator for boxes and unions of boxes."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from .elements import element_type
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """Node coordinates (n, 3) and connectivity by meshio cell type, VTK node order."""
+
+    points: np.ndarray
+    cells: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.points)
+
+    @property
+    def n_cells(self) -> int:
+        return sum(len(c) for c in self.cells.values())
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.points.min(axis=0), self.points.max(axis=0)
+
+    def largest_dimension(self) -> float:
+        lo, hi = self.bounding_box()
+        return float(np.max(hi - lo))
+
+    def transformed(self, rotation: np.ndarray, shift: np.ndarray) -> "Mesh":
+        """The same mesh with points x -> rotation @ x + shift."""
+        return Mesh(self.points @ np.asarray(rotation).T + shift, dict(self.cells))
+
+
+@dataclass(frozen=True)
+class Box:
+    """An axis-aligned box [lo, hi] (model length units)."""
+
+    lo: tuple[float, float, float]
+    hi: tuple[float, float, float]
+
+    def contains(self, x: np.ndarray) -> np.ndarray:
+        return np.all((x >= np.asarray(self.lo)) & (x <= np.asarray(self.hi)), axis=-1)
+
+
+def _grid_lines(boxes: Sequence[Box], axis: int, h: float) -> np.ndarray:
+    """Grid coordinates along one axis: every box face, subdivided to spacing <= h."""
+    breaks = np.unique(np.concatenate([[b.lo[axis], b.hi[axis]] for b in boxes]))
+    lines = [breaks[:1]]
+    for a, b in zip(breaks[:-1], breaks[1:]):
+        n = max(1, int(np.ceil((b - a) / h - 1e-9)))
+        lines.append(np.linspace(a, b, n + 1)[1:])
+    return np.concatenate(lines)
+
+
+def box_union_mesh(boxes: Sequence[Box], h: float | Sequence[float], cell_type: str = "hexahedron27") -> Mesh:
+    """Conforming structured hexahedral mesh of a union of boxes.
+
+    The grid lines along each axis are the union of all box faces, each
+    interval split into equal parts no longer than ``h`` (a number or one per
+    axis). A grid cell belongs to the mesh when its centre lies in a box.
+    """
+    etype = element_type(cell_type)
+    hs = np.broadcast_to(np.asarray(h, float), (3,))
+    lines = [_grid_lines(boxes, d, hs[d]) for d in range(3)]
+    centres = np.stack(np.meshgrid(*[(l[:-1] + l[1:]) / 2 for l in lines], indexing="ij"), -1)
+    inside = np.zeros(centres.shape[:3], bool)
+    for box in boxes:
+        inside |= box.contains(centres)
+    ijk = np.argwhere(inside)  # (ne, 3) cell indices
+    quadratic = np.any(etype.ref_nodes == 0)
+    step = 2 if quadratic else 1
+    offsets = ((etype.ref_nodes + 1) * step / 2).astype(int)  # (nn, 3) in the node grid
+    node_ijk = ijk[:, None, :] * step + offsets[None]  # (ne, nn, 3)
+    dims = np.array([step * (len(l) - 1) + 1 for l in lines])
+    flat = np.ravel_multi_index(node_ijk.reshape(-1, 3).T, dims)
+    used, conn = np.unique(flat, return_inverse=True)
+    node_grid = np.array(np.unravel_index(used, dims)).T
+    coords = [_refined(l, step) for l in lines]
+    points = np.stack([coords[d][node_grid[:, d]] for d in range(3)], -1)
+    return Mesh(points, {cell_type: conn.reshape(len(ijk), etype.n_nodes)})
+
+
+def _refined(lines: np.ndarray, step: int) -> np.ndarray:
+    """Grid lines with their midpoints inserted when step == 2."""
+    if step == 1:
+        return lines
+    out = np.empty(2 * len(lines) - 1)
+    out[0::2] = lines
+    out[1::2] = (lines[:-1] + lines[1:]) / 2
+    return out
+
+
+def box_mesh(size: Sequence[float], divisions: Sequence[int], cell_type: str = "hexahedron27",
+             centred: bool = True) -> Mesh:
+    """Structured mesh of one box of ``size`` with ``divisions`` elements per axis."""
+    size = np.asarray(size, float)
+    lo = -size / 2 if centred else np.zeros(3)
+    box = Box(tuple(lo), tuple(lo + size))
+    return box_union_mesh([box], size / np.asarray(divisions, float), cell_type)

@@ -1,0 +1,205 @@
+"""FE modal data -> inertia shape integrals -> I0, W1, W2, W3 (theory section 3).
+
+All integrals are nodal sums with the scalar mass matrix Ms: exact for
+fields of the FE space when Ms is consistent, the lumped-mass (Adams-style)
+approximation when Ms is diagonal.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import scipy.sparse as sp
+
+from .units import Units, factor
+
+# Levi-Civita symbol eps[k, l, m]
+EPS = np.zeros((3, 3, 3))
+for _k, _l, _m in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+    EPS[_k, _l, _m], EPS[_k, _m, _l] = 1.0, -1.0
+
+CHUNK_BYTES = 32 * 2**20  # nodal rows of Ms @ Phi held at once
+
+
+def _sym(a: np.ndarray) -> np.ndarray:
+    return 0.5 * (a + a.T)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True)
+class ShapeIntegrals:
+    """Nodal-sum integrals of one body in its floating frame (theory section 3).
+
+    mass          sum m
+    first_moment  sum m x                 (3,)
+    I             I_kl = sum m x_k x_l    (3, 3)
+    Ibar          Ibar[k, l] = x_k^T Ms Phi_l     (3, 3, nf)
+    Sbar          Sbar[k, l] = Phi_k^T Ms Phi_l   (3, 3, nf, nf)
+    mode_sum      sum m S = 1^T Ms Phi_k  (3, nf)  (zero for free-surface modes)
+    """
+
+    mass: float
+    first_moment: np.ndarray
+    I: np.ndarray
+    Ibar: np.ndarray
+    Sbar: np.ndarray
+    mode_sum: np.ndarray
+
+    def __post_init__(self):
+        for name in ("first_moment", "I", "Ibar", "Sbar", "mode_sum"):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        object.__setattr__(self, "mass", float(self.mass))
+
+    @property
+    def nf(self) -> int:
+        return self.Ibar.shape[2]
+
+    @property
+    def com(self) -> np.ndarray:
+        return self.first_moment / self.mass
+
+    def I0(self) -> np.ndarray:
+        """Inertia tensor of the undeformed body about the frame origin."""
+        return I0(self.I)
+
+    def W1(self) -> np.ndarray:
+        return W1(self.Ibar)
+
+    def W2(self) -> np.ndarray:
+        return W2(self.Sbar)
+
+    def W3(self) -> np.ndarray:
+        return W3(self.Sbar)
+
+    def mean_axis_residual(self) -> np.ndarray:
+        """sum m u0~ S (3, nf): zero for modes satisfying the mean-axis conditions."""
+        return np.einsum("klm,lmp->kp", EPS, self.Ibar)
+
+    def shifted(self, c: np.ndarray) -> "ShapeIntegrals":
+        """The integrals with the frame origin moved to c (x' = x - c)."""
+        c = np.asarray(c, float)
+        s = self.first_moment
+        I = self.I - np.outer(c, s) - np.outer(s, c) + self.mass * np.outer(c, c)
+        Ibar = self.Ibar - c[:, None, None] * self.mode_sum[None, :, :]
+        return replace(self, first_moment=s - self.mass * c, I=I, Ibar=Ibar)
+
+    def rotated(self, R: np.ndarray) -> "ShapeIntegrals":
+        """The integrals in axes given by the columns of R (x' = R^T x, S' = R^T S)."""
+        return replace(
+            self,
+            first_moment=R.T @ self.first_moment,
+            I=_sym(R.T @ self.I @ R),
+            Ibar=np.einsum("ak,bl,abp->klp", R, R, self.Ibar),
+            Sbar=np.einsum("ak,bl,abpr->klpr", R, R, self.Sbar),
+            mode_sum=R.T @ self.mode_sum,
+        )
+
+    def converted(self, src: Units, dst: Units) -> "ShapeIntegrals":
+        """The integrals in other units."""
+        return ShapeIntegrals(
+            mass=self.mass * factor(src, dst, "mass"),
+            first_moment=self.first_moment * factor(src, dst, "mass") * factor(src, dst, "length"),
+            I=self.I * factor(src, dst, "inertia"),
+            Ibar=self.Ibar * factor(src, dst, "Ibar"),
+            Sbar=self.Sbar,
+            mode_sum=self.mode_sum * factor(src, dst, "mode_sum"),
+        )
+
+
+def shape_integrals(X: np.ndarray, Ms: sp.sparray, Phi) -> ShapeIntegrals:
+    """Shape integrals from node coordinates X (n, 3), scalar mass Ms (n, n) and modes Phi (n, 3, nf).
+
+    One sparse product Y = Ms Phi and one dense product Phi^T Y, both over
+    blocks of nodal rows so that the extra memory is one block of Y.
+    ``Phi`` may be any array-like with row slicing (e.g. an h5py dataset).
+    """
+    n, _, nf = Phi.shape
+    Ms = sp.csr_array(Ms)
+    Xe = np.column_stack([np.ones(n), X])  # [1, x1, x2, x3]
+    MX = Ms @ Xe
+    if isinstance(Phi, np.ndarray):
+        Phi2 = Phi.reshape(n, 3 * nf)
+    else:
+        Phi2 = np.asarray(Phi[...], dtype=float).reshape(n, 3 * nf)
+    moments = np.zeros((4, 3 * nf))  # [1, X]^T Ms Phi
+    Sbar = np.zeros((3 * nf, 3 * nf))
+    rows = max(1, CHUNK_BYTES // (8 * 3 * nf))
+    for a in range(0, n, rows):
+        b = min(n, a + rows)
+        Y = Ms[a:b] @ Phi2
+        Sbar += Phi2[a:b].T @ Y
+        moments += Xe[a:b].T @ Y
+    Sbar = 0.5 * (Sbar + Sbar.T)
+    return ShapeIntegrals(
+        mass=MX[:, 0].sum(),
+        first_moment=Xe[:, 0] @ MX[:, 1:],
+        I=_sym(X.T @ MX[:, 1:]),
+        Ibar=moments[1:].reshape(3, 3, nf),
+        Sbar=Sbar.reshape(3, nf, 3, nf).transpose(0, 2, 1, 3),
+        mode_sum=moments[0].reshape(3, nf),
+    )
+
+
+def I0(I: np.ndarray) -> np.ndarray:
+    """I0 = trace(I) 1 - I (G17): the inertia tensor from the second moments I_kl."""
+    return np.trace(I) * np.eye(3) - I
+
+
+def W1(Ibar: np.ndarray) -> np.ndarray:
+    """W1 (3 x 3nf), blocks 2 delta_kl sum_j Ibar_jj - (Ibar_kl + Ibar_lk) (G17)."""
+    nf = Ibar.shape[2]
+    tr = np.einsum("jjp->p", Ibar)
+    blocks = 2 * np.eye(3)[:, :, None] * tr - (Ibar + Ibar.transpose(1, 0, 2))
+    return blocks.reshape(3, 3 * nf)
+
+
+def W2(Sbar: np.ndarray) -> np.ndarray:
+    """W2 (3nf x 3nf), block (k, l) = delta_kl sum_j Sbar_jj - Sbar_lk (G17)."""
+    nf = Sbar.shape[2]
+    tr = np.einsum("jjpr->pr", Sbar)
+    blocks = np.eye(3)[:, :, None, None] * tr - Sbar.transpose(1, 0, 2, 3)
+    return blocks.transpose(0, 2, 1, 3).reshape(3 * nf, 3 * nf)
+
+
+def W3(Sbar: np.ndarray) -> np.ndarray:
+    """W3 (3nf x nf), block k = sum_lm eps_klm Sbar_lm, i.e. [S23 - S32; S31 - S13; S12 - S21] (G17)."""
+    nf = Sbar.shape[2]
+    return np.einsum("klm,lmpr->kpr", EPS, Sbar).reshape(3 * nf, nf)
+
+
+def Qf(q: np.ndarray) -> np.ndarray:
+    """Qf = blockdiag(q, q, q) (3nf x 3)."""
+    q = np.asarray(q, float)
+    return np.kron(np.eye(3), q[:, None])
+
+
+def I_TT(integrals: ShapeIntegrals, q: np.ndarray) -> np.ndarray:
+    """Inertia of the deformed body I0 + W1 Qf + Qf^T W2 Qf (theory section 3)."""
+    Q = Qf(q)
+    return integrals.I0() + integrals.W1() @ Q + Q.T @ integrals.W2() @ Q
+
+
+def principal_axes(I0_: np.ndarray) -> np.ndarray:
+    """Rotation R (columns: principal axes) closest to the current axes.
+
+    Eigenvectors of I0 are assigned to the current axes by largest
+    overlap and signed to point along them, so a body that is already
+    principal keeps its axis labels (det R = +1).
+    """
+    _, V = np.linalg.eigh(0.5 * (I0_ + I0_.T))
+    order = np.zeros(3, int)
+    free = list(range(3))
+    for k in np.argsort(-np.abs(V).max(axis=1)):  # most decided axes first
+        j = max(free, key=lambda col: abs(V[k, col]))
+        order[k] = j
+        free.remove(j)
+    R = V[:, order]
+    R = R * np.sign(np.diag(R) + (np.diag(R) == 0))
+    if np.linalg.det(R) < 0:
+        R[:, np.argmin(np.abs(np.diag(R)))] *= -1
+    return R

@@ -1,0 +1,63 @@
+"""Body file formats, reached through one registry by file suffix (meshio's layout)."""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Callable
+
+from ..body import FlexibleBody
+from ..errors import FFRFError
+
+
+@dataclass(frozen=True)
+class Format:
+    """A body file format: its name, suffixes, reader and (optional) writer."""
+
+    name: str
+    suffixes: tuple[str, ...]
+    read: Callable[..., FlexibleBody]
+    write: Callable[..., None] | None = None
+
+
+_FORMATS: dict[str, Format] = {}
+
+
+def register(fmt: Format) -> None:
+    _FORMATS[fmt.name] = fmt
+
+
+def formats() -> list[Format]:
+    return list(_FORMATS.values())
+
+
+def format_of(path: str | os.PathLike, name: str | None = None) -> Format:
+    """The format named ``name``, or the one whose suffix ends the file name (longest match)."""
+    if name is not None:
+        if name not in _FORMATS:
+            raise FFRFError(f"unknown format {name!r}; known: {', '.join(_FORMATS)}")
+        return _FORMATS[name]
+    fname = os.fspath(path).lower()
+    matches = [(len(s), f) for f in _FORMATS.values() for s in f.suffixes if fname.endswith(s)]
+    if not matches:
+        known = ", ".join(s for f in _FORMATS.values() for s in f.suffixes)
+        raise FFRFError(f"{path}: unknown file type; known suffixes: {known}")
+    return max(matches, key=lambda m: m[0])[1]
+
+
+def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> FlexibleBody:
+    """Read a body from any registered format."""
+    return format_of(path, fmt).read(path, **options)
+
+
+def write_body(body: FlexibleBody, path: str | os.PathLike, fmt: str | None = None,
+               overwrite: bool = False, **options) -> None:
+    """Write a body atomically to any registered format that has a writer."""
+    f = format_of(path, fmt)
+    if f.write is None:
+        raise FFRFError(f"{path}: format {f.name} can be read but not written")
+    f.write(body, path, overwrite=overwrite, **options)
+
+
+from . import ffrf_h5  # noqa: E402  (registers itself)
+
+__all__ = ["Format", "register", "formats", "format_of", "read_body", "write_body", "ffrf_h5"]

@@ -1,0 +1,28 @@
+"""Atomic output: write to a temporary file beside the target, then rename."""
+from __future__ import annotations
+
+import os
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+from ..errors import FFRFError
+
+
+@contextmanager
+def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a temporary path; on success it replaces ``target``, on failure it is removed."""
+    target = Path(target)
+    if target.exists() and not overwrite:
+        raise FFRFError(f"{target}: exists; refusing to overwrite (use --force)")
+    if not target.parent.is_dir():
+        raise FFRFError(f"{target}: directory {target.parent} does not exist")
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    os.close(fd)
+    tmp = Path(tmp)
+    try:
+        yield tmp
+        os.replace(tmp, target)
+    finally:
+        tmp.unlink(missing_ok=True)

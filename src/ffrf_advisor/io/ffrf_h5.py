@@ -1,0 +1,284 @@
+"""The native body format ``.ffrf.h5`` (HDF5), specified in docs/format.md.
+
+Reading is lazy: only the datasets a request needs are read, so ``info`` on
+a file with cached invariants never touches the mode matrix.
+"""
+from __future__ import annotations
+
+import os
+
+import h5py
+import numpy as np
+import scipy.sparse as sp
+
+from .. import __version__
+from ..body import MASS_KINDS, FlexibleBody, ModalFE, Provenance
+from ..errors import BodyFileError
+from ..fe.elements import ELEMENT_TYPES
+from ..fe.mesh import Mesh
+from ..invariants import ShapeIntegrals, shape_integrals
+from ..units import Units, UnitsError
+from . import Format, register
+from .atomic import atomic_path
+
+FORMAT_NAME = "ffrf-body"
+VERSION = 1
+SUPPORTED_VERSIONS = (1,)
+NODE_CHUNK = 4096  # nodal rows per HDF5 chunk
+
+
+# ---------------------------------------------------------------- writing
+def _dataset(group: h5py.Group, name: str, data: np.ndarray, chunk_rows: bool = False) -> None:
+    data = np.ascontiguousarray(data)
+    opts = dict(track_times=False)
+    if chunk_rows and data.ndim and data.size > 1024:
+        opts.update(chunks=(min(len(data), NODE_CHUNK), *data.shape[1:]), compression="gzip",
+                    compression_opts=4, shuffle=True)
+    group.create_dataset(name, data=data, **opts)
+
+
+def _write_csr(group: h5py.Group, name: str, A: sp.sparray) -> None:
+    A = sp.csr_array(A)
+    A.sort_indices()
+    g = group.create_group(name, track_order=True)
+    g.attrs["shape"] = np.asarray(A.shape, np.int64)
+    _dataset(g, "data", A.data, True)
+    _dataset(g, "indices", A.indices.astype(np.int64), True)
+    _dataset(g, "indptr", A.indptr.astype(np.int64), True)
+
+
+def _write_integrals(group: h5py.Group, J: ShapeIntegrals) -> None:
+    g = group.create_group("invariants", track_order=True)
+    g.attrs["mass"] = J.mass
+    for name in ("first_moment", "I", "Ibar", "Sbar", "mode_sum"):
+        _dataset(g, name, getattr(J, name))
+
+
+def write(body: FlexibleBody, path: str | os.PathLike, overwrite: bool = False,
+          cache_invariants: bool = True) -> None:
+    """Write ``body`` to ``path`` atomically; bit-for-bit reproducible for the same body."""
+    with atomic_path(path, overwrite) as tmp:
+        with h5py.File(tmp, "w", track_order=True, libver=("earliest", "v110")) as f:
+            f.attrs["format"] = FORMAT_NAME
+            f.attrs["version"] = VERSION
+            f.attrs["name"] = body.name
+            f.attrs["units"] = str(body.units)
+            prov = f.create_group("provenance", track_order=True)
+            prov.attrs["source"] = body.provenance.source
+            prov.attrs["mass_matrix"] = body.provenance.mass_matrix
+            prov.attrs["method"] = body.provenance.method
+            prov.attrs["notes"] = "\n".join(body.provenance.notes)
+            prov.attrs["written_by"] = f"ffrf_advisor {__version__}"
+            modes = f.create_group("modes", track_order=True)
+            _dataset(modes, "eigenvalues", body.eigenvalues)
+            stress = None
+            if body.sigma_max is not None:
+                stress = f.create_group("stress", track_order=True)
+                _dataset(stress, "max", body.sigma_max)
+            if body.fe is not None:
+                _write_fe(f, modes, stress, body.fe)
+            if cache_invariants or body.fe is None:
+                _write_integrals(f, body.integrals)
+
+
+def _write_fe(f: h5py.File, modes: h5py.Group, stress: h5py.Group | None, fe: ModalFE) -> None:
+    mesh = f.create_group("mesh", track_order=True)
+    _dataset(mesh, "points", fe.mesh.points, True)
+    cells = mesh.create_group("cells", track_order=True)
+    for cell_type, conn in fe.mesh.cells.items():
+        _dataset(cells, cell_type, conn.astype(np.int64), True)
+    mass = f.create_group("mass", track_order=True)
+    _write_csr(mass, "Ms", fe.Ms)
+    _dataset(modes, "Phi", fe.Phi, True)
+    if fe.K is not None:
+        _write_csr(f.create_group("stiffness", track_order=True), "K", fe.K)
+    if fe.stress_nodal is not None and stress is not None:
+        _dataset(stress, "nodal", fe.stress_nodal, True)
+
+
+# ---------------------------------------------------------------- reading
+class _Reader:
+    """Validating access to one open file; every failure names the field."""
+
+    def __init__(self, path, f: h5py.File):
+        self.path, self.f = path, f
+
+    def fail(self, field: str, expected: str, got: str | None = None):
+        raise BodyFileError(self.path, field, expected, got)
+
+    def node(self, name: str, kind=h5py.Dataset):
+        if name not in self.f:
+            self.fail(name, "a " + ("dataset" if kind is h5py.Dataset else "group"), "missing")
+        obj = self.f[name]
+        if not isinstance(obj, kind):
+            self.fail(name, "a " + ("dataset" if kind is h5py.Dataset else "group"), type(obj).__name__)
+        return obj
+
+    def array(self, name: str, shape: tuple, what: str = "finite numbers", integer: bool = False) -> np.ndarray:
+        ds = self.node(name)
+        if len(ds.shape) != len(shape) or any(s is not None and s != d for s, d in zip(shape, ds.shape)):
+            want = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
+            self.fail(name, f"shape {want}", str(tuple(ds.shape)))
+        kind = ds.dtype.kind
+        if kind not in ("iu" if integer else "fiu"):
+            self.fail(name, "integers" if integer else "numbers", f"dtype {ds.dtype}")
+        data = ds[()]
+        data = data.astype(np.int64 if integer else float, copy=False)
+        if not integer and not np.all(np.isfinite(data)):
+            self.fail(name, what, "NaN or inf")
+        return data
+
+    def attr(self, name: str, obj=None) -> str:
+        obj = self.f if obj is None else obj
+        if name not in obj.attrs:
+            self.fail(f"{obj.name.rstrip('/')}@{name}", "an attribute", "missing")
+        value = obj.attrs[name]
+        return value.decode() if isinstance(value, bytes) else value
+
+    def csr(self, name: str, shape: tuple[int, int]) -> sp.csr_array:
+        g = self.node(name, h5py.Group)
+        got = tuple(int(s) for s in np.asarray(g.attrs.get("shape", ())).ravel())
+        if got != shape:
+            self.fail(f"{name}@shape", f"{shape}", str(got))
+        data = self.array(f"{name}/data", (None,))
+        indices = self.array(f"{name}/indices", (len(data),), integer=True)
+        indptr = self.array(f"{name}/indptr", (shape[0] + 1,), integer=True)
+        if (indptr[0] != 0 or indptr[-1] != len(data) or np.any(np.diff(indptr) < 0)
+                or (len(indices) and (indices.min() < 0 or indices.max() >= shape[1]))):
+            self.fail(name, "a valid CSR matrix (monotone indptr, indices in range)")
+        return sp.csr_array((data, indices, indptr), shape=shape)
+
+
+def _header(r: _Reader) -> tuple[str, Units]:
+    if r.f.attrs.get("format") not in (FORMAT_NAME, FORMAT_NAME.encode()):
+        r.fail("@format", f"'{FORMAT_NAME}'", repr(r.f.attrs.get("format")))
+    version = r.f.attrs.get("version")
+    if version is None or np.ndim(version) or int(version) not in SUPPORTED_VERSIONS:
+        r.fail("@version", f"one of {SUPPORTED_VERSIONS}", repr(version))
+    try:
+        units = Units.parse(r.attr("units"))
+    except UnitsError as e:
+        r.fail("@units", "a unit system like 't-mm-N-s'", str(e))
+    return str(r.attr("name")), units
+
+
+def _provenance(r: _Reader, path) -> Provenance:
+    g = r.f.get("provenance")
+    if not isinstance(g, h5py.Group):
+        return Provenance(source=str(path))
+    get = lambda k, d="": (g.attrs.get(k, d).decode() if isinstance(g.attrs.get(k, d), bytes)  # noqa: E731
+                           else str(g.attrs.get(k, d)))
+    kind = get("mass_matrix", "unknown")
+    if kind not in MASS_KINDS:
+        r.fail("provenance@mass_matrix", f"one of {MASS_KINDS}", repr(kind))
+    notes = tuple(n for n in get("notes").split("\n") if n)
+    source = get("source") or str(path)
+    return Provenance(source=source, mass_matrix=kind, method=get("method") or Provenance.method, notes=notes)
+
+
+def _mesh(r: _Reader) -> Mesh:
+    points = r.array("mesh/points", (None, 3))
+    n = len(points)
+    cells = {}
+    if "mesh/cells" in r.f:
+        for cell_type, ds in r.node("mesh/cells", h5py.Group).items():
+            if cell_type not in ELEMENT_TYPES:
+                r.fail(f"mesh/cells/{cell_type}", f"a cell type of {', '.join(ELEMENT_TYPES)}")
+            conn = r.array(f"mesh/cells/{cell_type}", (None, ELEMENT_TYPES[cell_type].n_nodes), integer=True)
+            if conn.size and (conn.min() < 0 or conn.max() >= n):
+                r.fail(f"mesh/cells/{cell_type}", f"node indices in [0, {n})")
+            cells[cell_type] = conn
+    return Mesh(points, cells)
+
+
+def _mass(r: _Reader, n: int) -> sp.csr_array:
+    if "mass/Ms" in r.f:
+        Ms = r.csr("mass/Ms", (n, n))
+    elif "mass/M" in r.f:
+        M = r.csr("mass/M", (3 * n, 3 * n))
+        Ms = sp.csr_array(M[0::3, 0::3])
+        if abs(M - sp.kron(Ms, sp.eye_array(3))).max() > 1e-12 * abs(Ms).max():
+            r.fail("mass/M", "a full mass matrix of the form kron(Ms, I3) (theory section 2)")
+    else:
+        r.fail("mass/Ms", "a dataset group (or mass/M)", "missing")
+    diag = Ms.diagonal()
+    if Ms.sum() <= 0 or np.any(diag <= 0):
+        r.fail("mass/Ms", "positive total mass and positive diagonal", f"total {Ms.sum():.3e}")
+    if abs(Ms - Ms.T).max() > 1e-12 * diag.max():
+        r.fail("mass/Ms", "a symmetric matrix")
+    return Ms
+
+
+def _cached_integrals(r: _Reader, nf: int) -> ShapeIntegrals:
+    g = r.node("invariants", h5py.Group)
+    mass = g.attrs.get("mass")
+    if mass is None or np.ndim(mass) or not np.isfinite(mass) or mass <= 0:
+        r.fail("invariants@mass", "a positive finite number", repr(mass))
+    return ShapeIntegrals(
+        mass=float(mass),
+        first_moment=r.array("invariants/first_moment", (3,)),
+        I=r.array("invariants/I", (3, 3)),
+        Ibar=r.array("invariants/Ibar", (3, 3, nf)),
+        Sbar=r.array("invariants/Sbar", (3, 3, nf, nf)),
+        mode_sum=r.array("invariants/mode_sum", (3, nf)),
+    )
+
+
+def _phi(r: _Reader, n: int, nf: int) -> h5py.Dataset:
+    ds = r.node("modes/Phi")
+    if ds.shape != (n, 3, nf):
+        r.fail("modes/Phi", f"shape (n, 3, nf) = ({n}, 3, {nf})", str(tuple(ds.shape)))
+    if ds.dtype.kind != "f":
+        r.fail("modes/Phi", "floating-point numbers", f"dtype {ds.dtype}")
+    return ds
+
+
+def read(path: str | os.PathLike, load_fe: bool = False) -> FlexibleBody:
+    """Read a ``.ffrf.h5`` body. Nodal data are read only when needed or ``load_fe``."""
+    if not os.path.isfile(path):
+        raise BodyFileError(path, "file", "an existing file", "not found")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as e:
+        raise BodyFileError(path, "file", "an HDF5 file", "unreadable or corrupt HDF5") from None
+    with f:
+        try:
+            return _read_open(_Reader(path, f), path, load_fe)
+        except (OSError, KeyError, ValueError, TypeError) as e:
+            if isinstance(e, BodyFileError):
+                raise
+            raise BodyFileError(path, "file", "a readable ffrf-body file", f"{type(e).__name__}: {e}") from None
+
+
+def _read_open(r: _Reader, path, load_fe: bool) -> FlexibleBody:
+    name, units = _header(r)
+    eigenvalues = r.array("modes/eigenvalues", (None,))
+    nf = len(eigenvalues)
+    sigma = r.array("stress/max", (nf,)) if "stress/max" in r.f else None
+    if sigma is not None and np.any(sigma < 0):
+        r.fail("stress/max", "non-negative von Mises stresses")
+    has_fe = "modes/Phi" in r.f
+    fe = None
+    if load_fe or "invariants" not in r.f:
+        if not has_fe:
+            r.fail("modes/Phi", "nodal modes (or a cached invariants group)", "missing")
+        fe = _read_fe(r, nf)
+        integrals = shape_integrals(fe.mesh.points, fe.Ms, fe.Phi)
+    else:
+        integrals = _cached_integrals(r, nf)
+    return FlexibleBody(name=name, integrals=integrals, eigenvalues=eigenvalues, units=units,
+                        sigma_max=sigma, provenance=_provenance(r, path), fe=fe)
+
+
+def _read_fe(r: _Reader, nf: int) -> ModalFE:
+    mesh = _mesh(r)
+    n = mesh.n_nodes
+    Ms = _mass(r, n)
+    _phi(r, n, nf)
+    Phi = r.array("modes/Phi", (n, 3, nf))
+    K = r.csr("stiffness/K", (3 * n, 3 * n)) if "stiffness/K" in r.f else None
+    stress = r.array("stress/nodal", (n, nf)) if "stress/nodal" in r.f else None
+    return ModalFE(mesh, Ms, Phi, K, stress)
+
+
+register(Format("ffrf-h5", (".ffrf.h5",), read, write))

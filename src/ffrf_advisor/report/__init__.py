@@ -1,0 +1,1 @@
+"""Reports: console summaries, figures, HTML and PDF."""

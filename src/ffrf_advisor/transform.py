@@ -1,0 +1,69 @@
+"""Bring an arbitrary modal basis into the form of theory section 1 (theory section 4).
+
+Shift to the CoM, turn to the principal axes, M-orthogonalise the basis
+against the six rigid-body modes, solve the reduced eigenproblem and
+mass-normalise. Needs the stiffness K; without it only shift and rotation
+are possible and the remaining failed assumptions must be reported.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from .fe.assembly import full_mass
+from .invariants import I0, principal_axes
+
+RANK_TOL = 1e-10  # relative M-norm below which a projected basis vector is dependent
+
+
+@dataclass(frozen=True)
+class BasisTransform:
+    """Result: eigenvalues (nf,), modes Phi (n, 3, nf) and points in the principal CoM frame."""
+
+    eigenvalues: np.ndarray
+    Phi: np.ndarray
+    points: np.ndarray
+    com: np.ndarray        # old-frame CoM
+    rotation: np.ndarray   # columns: principal axes in the old frame
+    dropped: int           # basis vectors removed as rigid or dependent
+
+
+def rigid_modes(X: np.ndarray) -> np.ndarray:
+    """Six rigid-body modes (3n x 6): translations e_k and rotations e_k x x (i.e. -x~ e_k)."""
+    n = len(X)
+    R = np.zeros((n, 3, 6))
+    for k in range(3):
+        R[:, k, k] = 1.0
+        e = np.zeros(3)
+        e[k] = 1.0
+        R[:, :, 3 + k] = np.cross(e, X)
+    return R.reshape(3 * n, 6)
+
+
+def to_section1_form(X: np.ndarray, Ms: sp.sparray, K: sp.sparray, Psi: np.ndarray) -> BasisTransform:
+    """Transform basis Psi (3n x nb, node-interleaved) of the FE model (X, Ms, K) to free-surface modes."""
+    M = full_mass(Ms)
+    one = np.ones(len(X))
+    mass = one @ (Ms @ one)
+    c = (one @ (Ms @ X)) / mass
+    Xc = X - c
+    R = principal_axes(I0(Xc.T @ (Ms @ Xc)))
+    rigid = rigid_modes(Xc)
+    MR = M @ rigid
+    P = Psi - rigid @ np.linalg.solve(rigid.T @ MR, MR.T @ Psi)
+    Mr = P.T @ (M @ P)
+    Kr = P.T @ (K @ P)
+    d, V = np.linalg.eigh(0.5 * (Mr + Mr.T))
+    keep = d > RANK_TOL * d.max()
+    T = V[:, keep] / np.sqrt(d[keep])
+    lam, Z = sla.eigh(T.T @ Kr @ T)
+    lam = np.asarray(lam)
+    S = P @ (T @ Z)
+    S = S / np.sqrt(np.einsum("ip,ip->p", S, M @ S))
+    S = S * np.sign(S[np.argmax(np.abs(S), axis=0), np.arange(S.shape[1])])
+    n, nf = len(X), S.shape[1]
+    Phi = np.einsum("ak,iap->ikp", R, S.reshape(n, 3, nf))
+    return BasisTransform(lam, Phi, Xc @ R, c, R, int(Psi.shape[1] - nf))

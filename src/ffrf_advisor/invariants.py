@@ -18,7 +18,7 @@ EPS = np.zeros((3, 3, 3))
 for _k, _l, _m in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
     EPS[_k, _l, _m], EPS[_k, _m, _l] = 1.0, -1.0
 
-CHUNK_BYTES = 32 * 2**20  # nodal rows of Ms @ Phi held at once
+CHUNK_BYTES = 8 * 2**20  # nodal rows of Ms @ Phi held at once
 
 
 def _sym(a: np.ndarray) -> np.ndarray:

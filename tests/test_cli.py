@@ -1,0 +1,67 @@
+"""The command line through typer's runner and as a real process."""
+from __future__ import annotations
+
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import h5py
+from typer.testing import CliRunner
+
+from ffrf_advisor import __version__
+from ffrf_advisor.body import ModalFE
+from ffrf_advisor.cli import app
+from ffrf_advisor.invariants import shape_integrals
+from ffrf_advisor.io import write_body
+
+SAMPLE = Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5"
+runner = CliRunner()
+
+
+def test_version_and_help():
+    result = runner.invoke(app, ["--version"])
+    assert result.exit_code == 0 and __version__ in result.output
+    result = runner.invoke(app, ["--help"])
+    assert result.exit_code == 0 and "info" in result.output
+
+
+def test_info_on_the_shipped_beam():
+    result = runner.invoke(app, ["info", str(SAMPLE)], env={"COLUMNS": "160"})
+    assert result.exit_code == 0, result.output
+    assert "6.280000e-03 t" in result.output  # rho * V = 7.85e-9 * 40 * 20 * 1000
+    assert "106.19" in result.output  # first bending frequency
+    assert "FAIL" not in result.output
+
+
+def test_bad_input_is_one_line_with_exit_2(tmp_path):
+    junk = tmp_path / "junk.ffrf.h5"
+    junk.write_text("not hdf5")
+    for target in (junk, tmp_path / "missing.ffrf.h5", tmp_path / "body.xyz"):
+        proc = subprocess.run([sys.executable, "-m", "ffrf_advisor", "info", str(target)],
+                              capture_output=True, text=True)
+        assert proc.returncode == 2
+        assert "Traceback" not in proc.stderr
+        assert len(proc.stderr.strip().splitlines()) == 1 and str(target) in proc.stderr
+
+
+def test_unknown_version_through_the_cli(tmp_path):
+    path = tmp_path / "beam.ffrf.h5"
+    path.write_bytes(SAMPLE.read_bytes())
+    with h5py.File(path, "r+") as f:
+        f.attrs["version"] = 7
+    result = runner.invoke(app, ["info", str(path)])
+    assert result.exit_code == 2 and "@version" in result.output
+
+
+def test_failed_assumptions_are_reported_with_their_caveat(tmp_path, block_body):
+    fe = block_body.fe
+    Phi = fe.Phi * 1.05
+    bad = replace(block_body, integrals=shape_integrals(fe.mesh.points, fe.Ms, Phi),
+                  fe=ModalFE(fe.mesh, fe.Ms, Phi, None))
+    path = tmp_path / "bad.ffrf.h5"
+    write_body(bad, path)
+    result = runner.invoke(app, ["info", str(path)], env={"COLUMNS": "200"})
+    assert result.exit_code == 0
+    assert "FAIL" in result.output and "mass-normalised modes" in result.output
+    assert "no stiffness matrix" in result.output

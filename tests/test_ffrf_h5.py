@@ -1,0 +1,152 @@
+"""The .ffrf.h5 format: round trip, lazy reading, every reader error, atomic writes."""
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from ffrf_advisor.errors import BodyFileError, FFRFError
+from ffrf_advisor.io import ffrf_h5, read_body, write_body
+
+
+@pytest.fixture
+def body_file(tmp_path, block_body):
+    path = tmp_path / "block.ffrf.h5"
+    write_body(block_body, path)
+    return path
+
+
+def test_round_trip_with_nodal_data(body_file, block_body):
+    back = read_body(body_file, load_fe=True)
+    assert back.name == block_body.name and back.units == block_body.units
+    assert back.provenance == block_body.provenance
+    assert np.array_equal(back.eigenvalues, block_body.eigenvalues)
+    assert np.array_equal(back.sigma_max, block_body.sigma_max)
+    fe, ref = back.fe, block_body.fe
+    assert np.array_equal(fe.mesh.points, ref.mesh.points)
+    assert all(np.array_equal(fe.mesh.cells[k], ref.mesh.cells[k]) for k in ref.mesh.cells)
+    assert (abs(fe.Ms - ref.Ms)).max() == 0 and (abs(fe.K - ref.K)).max() == 0
+    assert np.array_equal(fe.Phi, ref.Phi) and np.array_equal(fe.stress_nodal, ref.stress_nodal)
+    cached = read_body(body_file)
+    for name in ("I", "Ibar", "Sbar", "mode_sum", "first_moment"):
+        assert np.array_equal(getattr(cached.integrals, name), getattr(block_body.integrals, name))
+        a, b = getattr(back.integrals, name), getattr(block_body.integrals, name)  # recomputed
+        assert np.abs(a - b).max() <= 1e-12 * max(np.abs(b).max(), 1e-300) + 1e-15
+    assert cached.mass == block_body.mass
+
+
+def test_round_trip_of_an_invariants_only_body(tmp_path, block_body):
+    path = tmp_path / "inv.ffrf.h5"
+    write_body(replace(block_body, fe=None), path)
+    back = read_body(path)
+    assert back.fe is None and np.array_equal(back.integrals.Sbar, block_body.integrals.Sbar)
+    with pytest.raises(BodyFileError, match="modes/Phi"):
+        read_body(path, load_fe=True)
+
+
+def test_default_read_does_not_touch_nodal_datasets(body_file, monkeypatch):
+    touched = []
+    original = h5py.Dataset.__getitem__
+
+    def spy(self, key):
+        touched.append(self.name)
+        return original(self, key)
+
+    monkeypatch.setattr(h5py.Dataset, "__getitem__", spy)
+    read_body(body_file)
+    assert touched and not any(n.startswith(("/modes/Phi", "/mass", "/mesh", "/stiffness", "/stress/nodal"))
+                               for n in touched)
+
+
+def _mutate(path: Path, fn):
+    with h5py.File(path, "r+") as f:
+        fn(f)
+
+
+def _replace(name, data):
+    def fn(f):
+        del f[name]
+        f[name] = data
+    return fn
+
+
+def _set_attr(name, value, obj="/"):
+    def fn(f):
+        f[obj].attrs[name] = value
+    return fn
+
+
+def _csr_entry(f):
+    f["mass/Ms/data"][0] = -abs(f["mass/Ms/data"][0]) * 1e6  # breaks positivity of the diagonal
+
+
+def _nan_phi(f):
+    f["modes/Phi"][0, 0, 0] = np.nan
+
+
+BROKEN = {
+    "missing eigenvalues": (lambda f: f.__delitem__("modes/eigenvalues"), "modes/eigenvalues"),
+    "missing mass": (lambda f: (f.__delitem__("mass"), f.__delitem__("invariants")), "mass/Ms"),
+    "missing Phi": (lambda f: (f.__delitem__("modes/Phi"), f.__delitem__("invariants")), "modes/Phi"),
+    "Phi shape": (lambda f: (_replace("modes/Phi", np.zeros((3, 3)))(f), f.__delitem__("invariants")), "modes/Phi"),
+    "NaN in Phi": (lambda f: (_nan_phi(f), f.__delitem__("invariants")), "modes/Phi"),
+    "NaN eigenvalue": (_replace("modes/eigenvalues", np.array([np.nan] * 10)), "modes/eigenvalues"),
+    "inf stress": (_replace("stress/max", np.array([np.inf] * 10)), "stress/max"),
+    "stress shape": (_replace("stress/max", np.ones(3)), "stress/max"),
+    "negative mass": (lambda f: (_csr_entry(f), f.__delitem__("invariants")), "mass/Ms"),
+    "cached mass": (_set_attr("mass", -1.0, "invariants"), "invariants@mass"),
+    "Sbar shape": (_replace("invariants/Sbar", np.zeros((3, 3, 2, 2))), "invariants/Sbar"),
+    "unknown version": (_set_attr("version", 99), "@version"),
+    "wrong format": (_set_attr("format", "something"), "@format"),
+    "bad units": (_set_attr("units", "furlong-fortnight"), "@units"),
+    "cells out of range": (lambda f: (f["mesh/cells/hexahedron27"].__setitem__((0, 0), 10**6),
+                                      f.__delitem__("invariants")), "mesh/cells/hexahedron27"),
+    "CSR indptr": (lambda f: (_replace("mass/Ms/indptr", np.arange(5))(f), f.__delitem__("invariants")),
+                   "mass/Ms/indptr"),
+    "points dtype": (lambda f: (_replace("mesh/points", np.array(["a"] * 3, dtype="S1").reshape(1, 3))(f),
+                                f.__delitem__("invariants")), "mesh/points"),
+}
+
+
+@pytest.mark.parametrize("case", list(BROKEN))
+def test_reader_errors_name_the_field(case, body_file):
+    mutate, field = BROKEN[case]
+    _mutate(body_file, mutate)
+    with pytest.raises(BodyFileError) as info:
+        read_body(body_file)
+    message = str(info.value)
+    assert message.startswith(str(body_file)) and field in message and "\n" not in message
+
+
+def test_not_hdf5_and_missing_file(tmp_path):
+    junk = tmp_path / "junk.ffrf.h5"
+    junk.write_bytes(b"\x89HDF\r\n not really")
+    with pytest.raises(BodyFileError, match="HDF5"):
+        read_body(junk)
+    with pytest.raises(BodyFileError, match="not found"):
+        read_body(tmp_path / "none.ffrf.h5")
+
+
+def test_writer_refuses_to_overwrite_and_is_atomic(body_file, block_body, monkeypatch):
+    before = body_file.read_bytes()
+    with pytest.raises(FFRFError, match="overwrite"):
+        write_body(block_body, body_file)
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(ffrf_h5, "_write_fe", boom)
+    with pytest.raises(RuntimeError):
+        write_body(block_body, body_file, overwrite=True)
+    assert body_file.read_bytes() == before
+    assert [p.name for p in body_file.parent.iterdir()] == [body_file.name]
+
+
+def test_writes_are_bit_for_bit_reproducible(tmp_path, block_body):
+    a, b = tmp_path / "a.ffrf.h5", tmp_path / "b.ffrf.h5"
+    write_body(block_body, a)
+    write_body(block_body, b)
+    assert a.read_bytes() == b.read_bytes()

@@ -1,0 +1,77 @@
+"""Largest modal coordinates q_max,p (theory section 6, G section 5.2)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .body import FlexibleBody
+from .errors import FFRFError
+from .units import TMM, factor
+
+SIGMA_ALLOW = 500.0  # N/mm^2, the paper's allowable stress
+Q_CAP = 1.0          # in t-mm units: sqrt(t) * mm
+
+
+@dataclass(frozen=True)
+class AmplitudeOptions:
+    """sigma_allow in N/mm^2 and q_cap in t-mm units (both converted to the body's units)."""
+
+    sigma_allow: float = SIGMA_ALLOW
+    q_cap: float = Q_CAP
+    deflection_cap: float | None = None  # largest nodal deflection / largest dimension of mode 1
+    q_max: tuple[float, ...] | None = None  # given per mode, body units
+
+
+@dataclass(frozen=True)
+class Amplitudes:
+    """q_max per mode, the criterion that governs each, and the deflection measures."""
+
+    q_max: np.ndarray
+    governs: tuple[str, ...]
+    q_cap: float                 # in body units
+    sigma_allow: float           # in body stress units
+    stress_utilisation: np.ndarray | None  # sigma_p q_max,p / sigma_allow
+    deflection_ratio: np.ndarray | None    # largest nodal deflection at q_max,p / largest dimension
+    deflection_bounds: tuple[float, float]  # averaged modal deflection bounds 1/sqrt(3m), 1/sqrt(m) (G20-G22)
+    warnings: tuple[str, ...] = field(default=())
+
+
+def _mode1(body: FlexibleBody, opts: AmplitudeOptions, q_cap: float, sigma_allow: float,
+           deflection: np.ndarray | None) -> tuple[float, str, list[str]]:
+    """q_max,1 as the smallest of the cap, the stress and the deflection criteria."""
+    candidates = {"cap": q_cap}
+    warnings = []
+    if body.sigma_max is not None and body.sigma_max[0] > 0:
+        candidates["stress"] = sigma_allow / body.sigma_max[0]
+    else:
+        warnings.append("no modal stress data: q_max,1 is not limited by stress; "
+                        "it comes from q_cap" + (" and the deflection cap" if opts.deflection_cap else ""))
+    if opts.deflection_cap is not None:
+        if deflection is None:
+            warnings.append("deflection cap given but the body has no nodal modes: cap not applied")
+        else:
+            candidates["deflection"] = opts.deflection_cap * body.largest_dimension() / deflection[0]
+    name = min(candidates, key=candidates.get)
+    return candidates[name], name, warnings
+
+
+def q_max(body: FlexibleBody, opts: AmplitudeOptions = AmplitudeOptions()) -> Amplitudes:
+    """The paper's procedure: q_max,1 = min(q_cap, sigma_allow / sigma_1), q_max,p = q_max,1 lambda_1 / lambda_p."""
+    q_cap = opts.q_cap * factor(TMM, body.units, "q")
+    sigma_allow = opts.sigma_allow * factor(TMM, body.units, "stress")
+    deflection = body.fe.max_deflection() if body.fe is not None else None
+    if opts.q_max is not None:
+        q = np.asarray(opts.q_max, float)
+        if q.shape != (body.nf,) or not np.all(np.isfinite(q)) or np.any(q < 0):
+            raise FFRFError(f"q_max: expected {body.nf} non-negative numbers (one per mode), got {len(q)}")
+        governs = ("user",) * body.nf
+        warnings: list[str] = []
+    else:
+        q1, name, warnings = _mode1(body, opts, q_cap, sigma_allow, deflection)
+        q = q1 * body.eigenvalues[0] / body.eigenvalues
+        governs = (name,) + (f"lambda_1/lambda_p x mode 1 ({name})",) * (body.nf - 1)
+    utilisation = None if body.sigma_max is None else body.sigma_max * q / sigma_allow
+    ratio = None if deflection is None else deflection * q / body.largest_dimension()
+    bounds = (1 / np.sqrt(3 * body.mass), 1 / np.sqrt(body.mass))
+    return Amplitudes(q, governs, q_cap, sigma_allow, utilisation, ratio, bounds, tuple(warnings))

@@ -1,0 +1,262 @@
+"""Guideline levels I-IV as decision rules (theory section 8, G section 8)."""
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .amplitudes import Amplitudes
+from .body import FlexibleBody
+from .errors import FFRFError
+from .significance import Significance, coriolis_terms
+from .units import TIME
+
+THRESHOLDS = {
+    "widening_stress": 0.05,   # rule II: centrifugal stress / sigma_allow
+    "dI_L": 0.05,              # rule III
+    "dI_Q": 0.05,
+    "dI_fT": 0.05,
+    "dI_Tf": 0.05,
+    "centrifugal_ratio": 0.01,  # rule III, cf2
+    "softening": 0.01,          # rule III, cf2: (w_op / s_crit)^2
+    "speed_ratio": 0.1,         # rule IV: w_op / (2 pi f_sys)
+    "coriolis_ratio": 0.01,     # rule IV, cor_full
+    "coriolis_torque": 0.01,    # rule IV, cor_full: / (|I0| w_op^2)
+    "softening_warning": 0.5,   # warn when w_op / s_crit exceeds this
+}
+CONNECTIONS = ("free", "soft", "stiff")
+LEVELS = ("I", "II", "III", "IV")
+TERMS = ("gyro0", "cf1", "inertia_lin", "inertia_quad", "cf2", "coupling", "cor1", "cor_full")
+
+
+@dataclass(frozen=True)
+class Situation:
+    """What the advisor needs beyond the body. Speeds in rad/s, frequencies in Hz (per second)."""
+
+    w_op: float | None = None
+    f_sys: float | None = None
+    connection: str = "free"
+    widening: bool | None = None  # None: decided from the centrifugal stress
+    thresholds: dict[str, float] = field(default_factory=dict)
+
+    def threshold(self, name: str) -> float:
+        return {**THRESHOLDS, **self.thresholds}[name]
+
+
+@dataclass(frozen=True)
+class Rule:
+    """One decision: the number, its threshold, whether it fired (None: not evaluated) and why."""
+
+    rule: str      # I, II, III, IV
+    name: str
+    value: float | None
+    threshold: float | None
+    fired: bool | None
+    terms: tuple[str, ...]
+    reason: str
+
+
+@dataclass(frozen=True)
+class Advice:
+    level: str
+    terms: tuple[str, ...]
+    rules: tuple[Rule, ...]
+    warnings: tuple[str, ...]
+    energy_consistent: bool
+
+
+# ------------------------------------------------------------------ inputs
+_SPEED = re.compile(r"^\s*([-+0-9.eE]+)\s*(rad/s|rpm|hz|)\s*$", re.IGNORECASE)
+
+
+def parse_speed(text: str) -> float:
+    """Angular speed in rad/s from '3000rpm', '50Hz', '314rad/s' or a bare number (rad/s)."""
+    m = _SPEED.match(str(text))
+    try:
+        value = float(m.group(1)) if m else math.nan
+    except ValueError:
+        value = math.nan
+    if not m or not math.isfinite(value) or value < 0:
+        raise FFRFError(f"speed {text!r}: expected a non-negative number with rad/s, rpm or Hz, e.g. 3000rpm")
+    unit = m.group(2).lower()
+    return value * {"": 1.0, "rad/s": 1.0, "rpm": 2 * math.pi / 60, "hz": 2 * math.pi}[unit]
+
+
+def load_config(path: Path | None = None, cwd: Path = Path(".")) -> dict:
+    """Options from ``path``, else ``ffrf-advisor.toml`` or ``[tool.ffrf-advisor]`` of pyproject.toml in cwd."""
+    if path is None:
+        if (cwd / "ffrf-advisor.toml").is_file():
+            path = cwd / "ffrf-advisor.toml"
+        elif (cwd / "pyproject.toml").is_file():
+            data = _toml(cwd / "pyproject.toml")
+            return _validated(data.get("tool", {}).get("ffrf-advisor", {}), cwd / "pyproject.toml")
+        else:
+            return {}
+    return _validated(_toml(path), path)
+
+
+def _toml(path: Path) -> dict:
+    try:
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except (OSError, tomllib.TOMLDecodeError) as e:
+        raise FFRFError(f"{path}: config: expected readable TOML, got {e}") from None
+
+
+CONFIG_KEYS = {"sigma_allow", "q_cap", "deflection_cap", "n_ratio", "connection", "speed", "f_sys", "thresholds"}
+
+
+def _validated(cfg: dict, path: Path) -> dict:
+    unknown = set(cfg) - CONFIG_KEYS
+    if unknown:
+        raise FFRFError(f"{path}: config: unknown key(s) {sorted(unknown)}; expected {sorted(CONFIG_KEYS)}")
+    thresholds = cfg.get("thresholds", {})
+    bad = set(thresholds) - set(THRESHOLDS)
+    if bad:
+        raise FFRFError(f"{path}: config thresholds: unknown {sorted(bad)}; expected {sorted(THRESHOLDS)}")
+    for key, value in thresholds.items():
+        if not isinstance(value, (int, float)) or value < 0:
+            raise FFRFError(f"{path}: config thresholds.{key}: expected a non-negative number, got {value!r}")
+    return cfg
+
+
+# ------------------------------------------------------------------ rules
+def _per_second(body: FlexibleBody) -> float:
+    """Factor from 1/s to 1/(body time unit)."""
+    return float(TIME[body.units.time])
+
+
+def _rule_II(body, amp: Amplitudes, sig: Significance, sit: Situation, w_op) -> Rule:
+    thr = sit.threshold("widening_stress")
+    if sit.widening is not None:
+        return Rule("II", "widening", None, None, sit.widening, ("cf1",) if sit.widening else (),
+                    "centrifugal widening / stress recovery " + ("matters" if sit.widening else "does not matter")
+                    + " (user)")
+    if w_op is None:
+        return Rule("II", "widening", None, thr, None, (), "not evaluated: no operating speed")
+    if body.sigma_max is None:
+        return Rule("II", "widening", None, thr, None, (), "not evaluated: no modal stress data")
+    stress = 0.0
+    for k in range(3):  # spin about each principal axis; the largest centrifugal stress decides
+        w = w_op * np.eye(3)[k]
+        f_cf1 = np.einsum("k,kp->p", w, (0.5 * body.W1.T @ w).reshape(3, -1))
+        q_c = f_cf1 / body.eigenvalues
+        stress = max(stress, float(np.abs(q_c) @ body.sigma_max))
+    value = stress / amp.sigma_allow
+    fired = value > thr
+    return Rule("II", "widening", value, thr, fired, ("cf1",) if fired else (),
+                f"static centrifugal stress at w_op is {value:.2%} of sigma_allow")
+
+
+def _speed_ratio(body: FlexibleBody, sit: Situation) -> tuple[float | None, list[str]]:
+    """w_op / (2 pi f_sys), both per second; f_sys defaults to the body's first flexible frequency."""
+    warnings = []
+    f_sys = sit.f_sys
+    if f_sys is None:
+        f_sys = body.frequencies_hz[0] / _per_second(body)
+        warnings.append(f"f_sys not given: using the body's first flexible frequency {f_sys:.4g} Hz "
+                        "(the assembled system's is usually lower)")
+    if sit.w_op is None:
+        return None, warnings
+    return sit.w_op / (2 * math.pi * f_sys), warnings
+
+
+def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situation) -> Advice:
+    """The level, the exact term set and the evidence of every rule (theory section 8)."""
+    if sit.connection not in CONNECTIONS:
+        raise FFRFError(f"connection {sit.connection!r}: expected one of {', '.join(CONNECTIONS)}")
+    per_s = _per_second(body)
+    w_op = None if sit.w_op is None else sit.w_op * per_s  # rad per body time unit
+    stiff = sit.connection == "stiff"
+    rules = [Rule("I", "baseline", None, None, True, ("gyro0",), "gyroscopic term with I0 is always kept")]
+    warnings = list(amp.warnings)
+
+    rule2 = _rule_II(body, amp, sig, sit, w_op)
+    rules.append(rule2)
+    widening = bool(rule2.fired)
+
+    measures = {"dI_L": (sig.dI_L.max(), "inertia_lin"), "dI_Q": (sig.dI_Q.max(), "inertia_quad"),
+                "dI_fT": (sig.dI_fT.max(), "coupling"), "dI_Tf": (sig.dI_Tf.max(), "coupling")}
+    rule3_fired = False
+    for name, (value, term) in measures.items():
+        thr = sit.threshold(name)
+        over = value > thr
+        fired = over and not stiff
+        rule3_fired |= fired
+        reason = (f"max {name} = {value:.3g} {'>' if over else '<='} {thr:g}"
+                  + ("; body stiffly connected: I0 suffices" if over and stiff else ""))
+        rules.append(Rule("III", name, float(value), thr, fired, (term,) if fired else (), reason))
+    rules.append(_rule_cf2(sig, sit, w_op, widening, stiff))
+    rule3_fired |= bool(rules[-1].fired)
+
+    ratio, w = _speed_ratio(body, sit)
+    warnings += w
+    rules += _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired)
+
+    if w_op is not None and np.isfinite(sig.s_crit).any():
+        k = int(np.argmin(sig.s_crit))
+        r = w_op / sig.s_crit[k]
+        if r > sit.threshold("softening_warning"):
+            warnings.append(f"operating speed is {r:.0%} of the centrifugal-softening limit about axis {k + 1} "
+                            f"({sig.s_crit[k] / per_s:.4g} rad/s): the linear FFRF without geometric "
+                            "stiffening loses validity there")
+    terms = tuple(t for t in TERMS if any(t in r.terms for r in rules))
+    level = max((r.rule for r in rules if r.fired and r.terms), key=LEVELS.index)
+    consistent = not (("inertia_lin" in terms and "cor1" not in terms)
+                      or ({"inertia_quad", "coupling"} & set(terms) and "cor_full" not in terms))
+    if not consistent:
+        warnings.append("this term set is not energy-consistent: inertia terms without their Coriolis "
+                        "counterparts (theory section 5)")
+    return Advice(level, terms, tuple(rules), tuple(warnings), consistent)
+
+
+def _rule_cf2(sig: Significance, sit: Situation, w_op, widening: bool, stiff: bool) -> Rule:
+    thr = sit.threshold("centrifugal_ratio")
+    cr = sig.centrifugal.value
+    if not widening:
+        return Rule("III", "cf2", cr, thr, False, (), "widening does not matter (rule II): cf2 not needed")
+    soft = None if w_op is None else float((w_op / sig.s_crit.min()) ** 2)
+    over = (cr is not None and cr > thr) or (soft is not None and soft > sit.threshold("softening"))
+    fired = over and not stiff
+    reason = (f"centrifugal ratio {sig.centrifugal.text()} (> {thr:g}?), softening (w_op/s_crit)^2 = "
+              + ("n/a" if soft is None else f"{soft:.3g}") + f" (> {sit.threshold('softening'):g}?)")
+    return Rule("III", "cf2", cr, thr, fired, ("cf2",) if fired else (), reason)
+
+
+def _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired) -> list[Rule]:
+    thr = sit.threshold("speed_ratio")
+    if ratio is None:
+        return [Rule("IV", "speed_ratio", None, thr, None, (), "not evaluated: no operating speed")]
+    fast = ratio >= thr
+    fired = fast and not stiff
+    rules = [Rule("IV", "speed_ratio", float(ratio), thr, fired, ("cor1",) if fired else (),
+                  f"w_op / (2 pi f_sys) = {ratio:.3g} {'>=' if fast else '<'} {thr:g}"
+                  + ("; stiffly connected" if fast and stiff else ""))]
+    torque = _coriolis_torque(body, amp, sig, w_op)
+    cthr = sit.threshold("coriolis_torque")
+    cr = sig.coriolis.value
+    by_ratio = cr is not None and cr > sit.threshold("coriolis_ratio") and torque > cthr
+    full = fired and (rule3_fired or by_ratio)
+    reason = ("rule III fired (beam-like or rotationally soft body)" if rule3_fired else
+              f"Coriolis ratio {sig.coriolis.text()}, deformation-dependent Coriolis torque {torque:.3g} "
+              f"of |I0| w_op^2 (> {cthr:g}?)")
+    rules.append(Rule("IV", "cor_full", torque, cthr, full, ("cor_full",) if full else (), reason))
+    return rules
+
+
+def _coriolis_torque(body: FlexibleBody, amp: Amplitudes, sig: Significance, w_op: float) -> float:
+    """|deformation-dependent rotational Coriolis| / (|I0| w_op^2) at w = w_op (1,1,1)/sqrt 3."""
+    n = sig.n_ratio
+    q = np.zeros(body.nf)
+    q[:n] = amp.q_max[:n]
+    qd = np.sqrt(body.eigenvalues) * q
+    w = w_op * np.ones(3) / np.sqrt(3)
+    dep, _ = coriolis_terms(body, q, qd, w)
+    scale = np.linalg.norm(body.I0) * w_op**2
+    return float(np.linalg.norm(dep) / scale) if scale > 0 else 0.0
+
+

@@ -1,0 +1,145 @@
+"""Significance measures of the inertia terms (theory sections 7 and 9)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .body import FlexibleBody
+from .invariants import Qf
+
+N_RATIO = 10
+TINY = 1e-300
+
+
+@dataclass(frozen=True)
+class Magnitudes:
+    """Largest |entry|, mean |entry| of the nonzero entries, Frobenius norm (G Tables 2, 3)."""
+
+    max_abs: float
+    mean_nonzero: float
+    frobenius: float
+
+
+@dataclass(frozen=True)
+class Ratio:
+    """A norm ratio with its numerator and denominator; None when both vanish."""
+
+    numerator: float
+    denominator: float
+
+    @property
+    def value(self) -> float | None:
+        scale = max(self.numerator, self.denominator)
+        if scale <= TINY:
+            return None
+        return np.inf if self.denominator <= 1e-14 * scale else self.numerator / self.denominator
+
+    def text(self) -> str:
+        v = self.value
+        return "both vanish" if v is None else f"{v:.3e}"
+
+
+@dataclass(frozen=True)
+class Significance:
+    """All measures per mode p and axis k at q = q_max,p e_p (one mode at a time)."""
+
+    dI_L: np.ndarray   # (3, nf) |(W1 Qf)_kk| / I0_kk
+    dI_Q: np.ndarray   # (3, nf) |(Qf^T W2 Qf)_kk| / I0_kk
+    dI_fT: np.ndarray  # (3, nf) (C C^T)_kk / I0_kk, C = Qf^T W3
+    dI_Tf: np.ndarray  # (nf,)   max_r (C^T I0^-1 C)_rr
+    magnitudes: dict[str, Magnitudes]
+    n_ratio: int
+    coriolis: Ratio    # |deformation-dependent rotational Coriolis| / |W1 Qf' w|, w = (1,1,1)
+    centrifugal: Ratio  # |[w I] W2 Qf w| / |[w I] 0.5 W1^T w|
+    s_crit: np.ndarray  # (3,) centrifugal-softening critical speeds about the principal axes
+
+
+def magnitudes(a: np.ndarray) -> Magnitudes:
+    a = np.abs(a)
+    nonzero = a[a > 1e-12 * max(a.max(), TINY)]
+    return Magnitudes(float(a.max()), float(nonzero.mean()) if nonzero.size else 0.0, float(np.linalg.norm(a)))
+
+
+def inertia_change(body: FlexibleBody, q_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """dI_L[k, p] and dI_Q[k, p] (G28): diagonal of W1 Qf and Qf^T W2 Qf over I0_kk."""
+    nf = body.nf
+    I0kk = np.diag(body.I0)
+    W1 = body.W1.reshape(3, 3, nf)
+    W2 = body.W2.reshape(3, nf, 3, nf)
+    k = np.arange(3)
+    dI_L = np.abs(W1[k, k, :]) * q_max / I0kk[:, None]
+    dI_Q = np.abs(np.einsum("kpkp->kp", W2)) * q_max**2 / I0kk[:, None]
+    return dI_L, dI_Q
+
+
+def coupling(body: FlexibleBody, q_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """dI_fT[k, p] and dI_Tf[p] (G36-G40) with C = Qf^T W3 for q = q_max,p e_p."""
+    nf = body.nf
+    W3 = body.W3.reshape(3, nf, nf)  # W3[k, s, r]
+    C = W3 * q_max[None, :, None]      # C_p[k, r] = q_p W3[k, p, r], indexed [k, p, r]
+    I0 = body.I0
+    dI_fT = np.einsum("kpr,kpr->kp", C, C) / np.diag(I0)[:, None]
+    I0inv = np.linalg.inv(I0)
+    dI_Tf = np.einsum("kpr,kl,lpr->pr", C, I0inv, C).max(axis=1)
+    return dI_fT, dI_Tf
+
+
+def _wI(w: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """[w1 I, w2 I, w3 I] v for v of length 3nf."""
+    return np.einsum("k,kp->p", w, v.reshape(3, -1))
+
+
+def coriolis_terms(body: FlexibleBody, q: np.ndarray, qd: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(deformation-dependent rotational Coriolis, W1 Qf' w) of theory section 5 (verified form)."""
+    Q, Qd = Qf(q), Qf(qd)
+    W2 = body.W2
+    dependent = -(Qd.T @ W2 @ Q + Q.T @ W2 @ Qd) @ w - np.cross(w, Q.T @ body.W3 @ qd)
+    return dependent, body.W1 @ Qd @ w
+
+
+def centrifugal_terms(body: FlexibleBody, q: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """([w I] W2 Qf w, [w I] 0.5 W1^T w) of theory section 5."""
+    return _wI(w, body.W2 @ Qf(q) @ w), _wI(w, 0.5 * body.W1.T @ w)
+
+
+def _first(q_max: np.ndarray, n: int) -> np.ndarray:
+    q = np.zeros_like(q_max)
+    q[:n] = q_max[:n]
+    return q
+
+
+def norm_ratios(body: FlexibleBody, q_max: np.ndarray, n_ratio: int) -> tuple[Ratio, Ratio]:
+    """Coriolis (G Table 4) and centrifugal (G Table 5) ratios, first n_ratio modes at q_max, w = (1,1,1)."""
+    q = _first(q_max, n_ratio)
+    qd = np.sqrt(body.eigenvalues) * q
+    w = np.ones(3)
+    dep, const = coriolis_terms(body, q, qd, w)
+    cf2, cf1 = centrifugal_terms(body, q, w)
+    return (Ratio(float(np.linalg.norm(dep)), float(np.linalg.norm(const))),
+            Ratio(float(np.linalg.norm(cf2)), float(np.linalg.norm(cf1))))
+
+
+def softening_speeds(body: FlexibleBody) -> np.ndarray:
+    """s_crit about each principal axis: s^2 = min eig(Omega^2, Kc(a)), Kc(a) = sum_kl a_k a_l W2_kl (theory 9)."""
+    nf = body.nf
+    W2 = body.W2.reshape(3, nf, 3, nf)
+    inv_omega = 1 / np.sqrt(body.eigenvalues)
+    out = np.full(3, np.inf)
+    for k in range(3):
+        B = inv_omega[:, None] * W2[k, :, k, :] * inv_omega[None, :]
+        mu = np.linalg.eigvalsh(0.5 * (B + B.T)).max()
+        if mu > 0:
+            out[k] = 1 / np.sqrt(mu)
+    return out
+
+
+def significance(body: FlexibleBody, q_max: np.ndarray, n_ratio: int | None = None) -> Significance:
+    """Every measure of theory section 7 for the body at the given q_max."""
+    n = min(N_RATIO, body.nf) if n_ratio is None else min(n_ratio, body.nf)
+    dI_L, dI_Q = inertia_change(body, q_max)
+    dI_fT, dI_Tf = coupling(body, q_max)
+    cor, cf = norm_ratios(body, q_max, n)
+    mags = {"I0": magnitudes(body.I0), "W1": magnitudes(body.W1),
+            "W2": magnitudes(body.W2), "W3": magnitudes(body.W3)}
+    return Significance(dI_L, dI_Q, dI_fT, dI_Tf, mags, n, cor, cf, softening_speeds(body))

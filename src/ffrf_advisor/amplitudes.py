@@ -70,7 +70,7 @@ def q_max(body: FlexibleBody, opts: AmplitudeOptions = AmplitudeOptions()) -> Am
     else:
         q1, name, warnings = _mode1(body, opts, q_cap, sigma_allow, deflection)
         q = q1 * body.eigenvalues[0] / body.eigenvalues
-        governs = (name,) + (f"lambda_1/lambda_p x mode 1 ({name})",) * (body.nf - 1)
+        governs = (name,) + (f"scaled ({name})",) * (body.nf - 1)  # lambda_1/lambda_p x q_max,1
     utilisation = None if body.sigma_max is None else body.sigma_max * q / sigma_allow
     ratio = None if deflection is None else deflection * q / body.largest_dimension()
     bounds = (1 / np.sqrt(3 * body.mass), 1 / np.sqrt(body.mass))

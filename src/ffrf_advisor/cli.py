@@ -2,17 +2,26 @@
 from __future__ import annotations
 
 import functools
+import json
 import sys
 from pathlib import Path
+from typing import Annotated, Optional
 
 import typer
 from rich.console import Console
 
 from . import __version__
+from .amplitudes import AmplitudeOptions
+from .analysis import Options, analyze as run_analysis
 from .checks import run_checks
 from .errors import FFRFError
+from .gate import run_gate, write_junit
+from .guidelines import LEVELS
+from .guidelines import THRESHOLDS, Situation, load_config, parse_speed
 from .io import read_body
-from .report.console import body_summary
+from .io.atomic import atomic_path
+from .report.console import analysis_summary, body_summary
+from .report.json_out import analysis_json
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Which FFRF inertia terms does a flexible body need? Advice with evidence.")
@@ -54,5 +63,99 @@ def info(body: Path = typer.Argument(..., help="Body file (.ffrf.h5).")):
     body_summary(out, b, run_checks(b))
 
 
-def run() -> None:  # console-script entry point
-    sys.exit(app())
+Speed = Annotated[Optional[str], typer.Option("--speed", help="Operating angular speed: 314rad/s, 3000rpm, 50Hz.")]
+FSys = Annotated[Optional[float], typer.Option("--f-sys", help="First frequency of the assembled system [Hz].")]
+Connection = Annotated[Optional[str], typer.Option("--connection", help="free | soft | stiff (default free).")]
+Widening = Annotated[Optional[bool], typer.Option("--widening/--no-widening",
+                                                  help="Whether widening / stress recovery matters (default: from stress).")]
+SigmaAllow = Annotated[Optional[float], typer.Option("--sigma-allow", help="Allowable stress [N/mm^2] (500).")]
+QCap = Annotated[Optional[float], typer.Option("--q-cap", help="Cap of q_max,1 in t-mm units (1).")]
+DeflCap = Annotated[Optional[float], typer.Option("--deflection-cap", help="Largest deflection / largest dimension.")]
+QMax = Annotated[Optional[str], typer.Option("--q-max", help="q_max per mode: comma list or a file of numbers.")]
+NRatio = Annotated[Optional[int], typer.Option("--n-ratio", help="Modes used for the norm ratios (min(10, nf)).")]
+Threshold = Annotated[Optional[list[str]], typer.Option("--threshold", help="Override a threshold: NAME=VALUE.")]
+Config = Annotated[Optional[Path], typer.Option("--config", help="TOML config (default ffrf-advisor.toml or pyproject).")]
+AsJson = Annotated[bool, typer.Option("--json", help="Print JSON (docs/json-schema.json) instead of tables.")]
+
+
+def _q_max(text: str | None):
+    if text is None:
+        return None
+    source = Path(text).read_text() if Path(text).is_file() else text
+    try:
+        return tuple(float(x) for x in source.replace(",", " ").split())
+    except ValueError:
+        raise FFRFError(f"--q-max: expected numbers separated by commas or blanks (or a file of them), got {text!r}")
+
+
+def _thresholds(items: list[str] | None, base: dict) -> dict:
+    out = dict(base)
+    for item in items or []:
+        name, _, value = item.partition("=")
+        if name not in THRESHOLDS:
+            raise FFRFError(f"--threshold {item!r}: unknown name; expected one of {', '.join(THRESHOLDS)}")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise FFRFError(f"--threshold {item!r}: expected NAME=NUMBER") from None
+    return out
+
+
+def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_allow=None, q_cap=None,
+                  deflection_cap=None, q_max=None, n_ratio=None, threshold=None, config=None) -> Options:
+    """Options from defaults < config file < command line."""
+    cfg = load_config(config)
+    pick = lambda cli, key, default=None: cli if cli is not None else cfg.get(key, default)  # noqa: E731
+    speed = pick(speed, "speed")
+    amp = AmplitudeOptions(sigma_allow=pick(sigma_allow, "sigma_allow", AmplitudeOptions.sigma_allow),
+                           q_cap=pick(q_cap, "q_cap", AmplitudeOptions.q_cap),
+                           deflection_cap=pick(deflection_cap, "deflection_cap"), q_max=_q_max(q_max))
+    situation = Situation(w_op=None if speed is None else parse_speed(speed), f_sys=pick(f_sys, "f_sys"),
+                          connection=pick(connection, "connection", "free"), widening=widening,
+                          thresholds=_thresholds(threshold, cfg.get("thresholds", {})))
+    return Options(amp, situation, pick(n_ratio, "n_ratio"))
+
+
+@app.command()
+@handles_errors
+def analyze(body: Path = typer.Argument(..., help="Body file."), speed: Speed = None, f_sys: FSys = None,
+            connection: Connection = None, widening: Widening = None, sigma_allow: SigmaAllow = None,
+            q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None, n_ratio: NRatio = None,
+            threshold: Threshold = None, config: Config = None, as_json: AsJson = False):
+    """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
+    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
+                            n_ratio, threshold, config)
+    result = run_analysis(read_body(body, load_fe=True), options)
+    if as_json:
+        print(json.dumps(analysis_json(result, str(body)), indent=1))
+    else:
+        analysis_summary(out, result)
+
+
+@app.command()
+@handles_errors
+def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
+         max_level: str = typer.Option(..., "--max-level", help="Highest level the model implements: I-IV."),
+         speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
+         threshold: Threshold = None, config: Config = None,
+         junit: Optional[Path] = typer.Option(None, "--junit", help="Write JUnit XML here."),
+         jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Bodies analysed in parallel."),
+         as_json: AsJson = False):
+    """CI gate: exit 0 when every body's level is within --max-level, 1 when one is not, 2 on bad input."""
+    if max_level not in LEVELS:
+        raise FFRFError(f"--max-level {max_level!r}: expected one of {', '.join(LEVELS)}")
+    options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config)
+    results = run_gate([str(b) for b in bodies], options, max_level, jobs, err)
+    if junit is not None:
+        with atomic_path(junit, overwrite=True) as tmp:
+            write_junit(results, max_level, tmp)
+    if as_json:
+        print(json.dumps({"schema_version": 1, "max_level": max_level, "bodies": results}, indent=1))
+    else:
+        for r in results:
+            status = "ERROR" if r["error"] else ("ok" if r["within"] else "EXCEEDS")
+            out.print(f"{status:8s} {r['file']}: " + (r["error"] or f"level {r['level']} (max {max_level})"))
+    if any(r["error"] for r in results):
+        raise typer.Exit(EXIT_BAD_INPUT)
+    if not all(r["within"] for r in results):
+        raise typer.Exit(1)

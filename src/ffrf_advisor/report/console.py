@@ -53,3 +53,47 @@ def checks_table(checks: list[Check]) -> Table:
         table.add_row(c.name, f"{c.value:.3e}", f"{op} {c.tolerance:.1e}",
                       "[green]pass[/green]" if c.passed else "[red]FAIL[/red]")
     return table
+
+
+def analysis_summary(console: Console, a) -> None:
+    """Level and term set on top, then amplitudes, significance tables and the evidence per rule."""
+    b, amp, sig, adv = a.body, a.amplitudes, a.significance, a.advice
+    u = b.units
+    console.print(f"[bold]{b.name}[/bold]: level [bold]{adv.level}[/bold]   terms: {', '.join(adv.terms)}"
+                  + ("" if adv.energy_consistent else "   [yellow](not energy-consistent)[/yellow]"))
+    for w in adv.warnings:
+        console.print(f"[yellow]warning[/yellow]: {w}")
+    t = Table(title=f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "
+                    f"sigma_allow {amp.sigma_allow:.4g} {u.stress})")
+    for col in ("mode", f"f [1/{u.time}]", "q_max", "governs", "sigma/sigma_allow", "deflection/L"):
+        t.add_column(col, justify="left" if col == "governs" else "right")
+    for p in range(b.nf):
+        t.add_row(str(p + 1), f"{b.frequencies_hz[p]:.4g}", f"{amp.q_max[p]:.4e}", amp.governs[p],
+                  "-" if amp.stress_utilisation is None else f"{amp.stress_utilisation[p]:.3g}",
+                  "-" if amp.deflection_ratio is None else f"{amp.deflection_ratio[p]:.3g}")
+    console.print(t)
+    m = Table(title="significance per axis (max over modes; theory 7)")
+    for col in ("axis", "dI_L", "dI_Q", "dI_fT", "s_crit [rad/" + u.time + "]"):
+        m.add_column(col, justify="right")
+    for k in range(3):
+        m.add_row(str(k + 1), f"{sig.dI_L[k].max():.3e}", f"{sig.dI_Q[k].max():.3e}",
+                  f"{sig.dI_fT[k].max():.3e}", f"{sig.s_crit[k]:.4g}")
+    console.print(m)
+    console.print(f"dI_Tf max {sig.dI_Tf.max():.3e};  Coriolis ratio {sig.coriolis.text()} "
+                  f"(|num| {sig.coriolis.numerator:.3e}, |den| {sig.coriolis.denominator:.3e});  "
+                  f"centrifugal ratio {sig.centrifugal.text()} (|num| {sig.centrifugal.numerator:.3e}, "
+                  f"|den| {sig.centrifugal.denominator:.3e});  first {sig.n_ratio} modes")
+    g = Table(title="magnitudes (G Tables 2, 3)")
+    for col in ("matrix", "max |entry|", "mean |nonzero|", "Frobenius"):
+        g.add_column(col, justify="right")
+    for name, mag in sig.magnitudes.items():
+        g.add_row(name, f"{mag.max_abs:.3e}", f"{mag.mean_nonzero:.3e}", f"{mag.frobenius:.3e}")
+    console.print(g)
+    r = Table(title="evidence per rule (theory 8)")
+    for col in ("rule", "measure", "value", "threshold", "fired", "terms", "reason"):
+        r.add_column(col)
+    for rule in adv.rules:
+        fired = "not evaluated" if rule.fired is None else ("yes" if rule.fired else "no")
+        r.add_row(rule.rule, rule.name, "-" if rule.value is None else f"{rule.value:.3g}",
+                  "-" if rule.threshold is None else f"{rule.threshold:g}", fired, ", ".join(rule.terms), rule.reason)
+    console.print(r)

@@ -1,0 +1,197 @@
+"""Advisor (theory sections 6-9): rules on synthetic bodies, invariances, FE bodies."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ffrf_advisor.amplitudes import AmplitudeOptions, q_max
+from ffrf_advisor.analysis import Options, analyze
+from ffrf_advisor.body import FlexibleBody
+from ffrf_advisor.errors import FFRFError
+from ffrf_advisor.guidelines import Situation, parse_speed
+from ffrf_advisor.invariants import ShapeIntegrals
+from ffrf_advisor.io import read_body
+from ffrf_advisor.significance import centrifugal_terms, coriolis_terms, significance
+from ffrf_advisor.units import SI, TMM, factor
+
+from .test_cli import SAMPLE
+
+NF = 2
+LAM = np.array([4e4, 1.6e5])  # Omega = 200, 400 rad/s
+
+
+def synthetic(I0=100.0, Ibar=None, Sbar=None, sigma=None, lam=LAM) -> FlexibleBody:
+    """A body defined by its invariants: I0 = I0 * 1, modes moving along x unless Sbar says otherwise."""
+    if Sbar is None:
+        Sbar = np.zeros((3, 3, NF, NF))
+        Sbar[0, 0] = np.eye(NF)
+    J = ShapeIntegrals(mass=1.0, first_moment=np.zeros(3), I=np.eye(3) * I0 / 2,
+                       Ibar=np.zeros((3, 3, NF)) if Ibar is None else Ibar, Sbar=Sbar, mode_sum=np.zeros((3, NF)))
+    return FlexibleBody("synthetic", J, lam, sigma_max=sigma)
+
+
+def advise(body, q=(1.0, 0.5), **situation):
+    return analyze(body, Options(AmplitudeOptions(q_max=q), Situation(**situation))).advice
+
+
+def rule(advice, name):
+    return next(r for r in advice.rules if r.name == name)
+
+
+def test_quiet_body_is_level_I():
+    adv = advise(synthetic(), w_op=10.0, f_sys=1000.0)
+    assert adv.level == "I" and adv.terms == ("gyro0",)
+
+
+@pytest.mark.parametrize("x, fires", [(0.1, True), (0.01, False)])
+def test_linear_inertia_rule(x, fires):
+    Ibar = np.zeros((3, 3, NF))
+    Ibar[0, 0, 0] = x * 100.0 / 2  # W1 diagonal 2 Ibar_11 about axes 2, 3: dI_L = x
+    adv = advise(synthetic(Ibar=Ibar))
+    assert rule(adv, "dI_L").value == pytest.approx(x, rel=1e-12)
+    assert ("inertia_lin" in adv.terms) is fires and (adv.level == "III") is fires
+    assert advise(synthetic(Ibar=Ibar), connection="stiff").level == "I"
+
+
+@pytest.mark.parametrize("I0, fires", [(10.0, True), (100.0, False)])
+def test_quadratic_inertia_rule(I0, fires):
+    adv = advise(synthetic(I0=I0))  # (Qf^T W2 Qf)_22 = q^2 Sbar_11 = 1
+    assert rule(adv, "dI_Q").value == pytest.approx(1.0 / I0, rel=1e-12)
+    assert ("inertia_quad" in adv.terms) is fires
+    assert advise(synthetic(I0=I0), connection="soft").level == ("III" if fires else "I")
+
+
+@pytest.mark.parametrize("c", [0.9, 0.5, 0.1])
+def test_coupling_rule(c):
+    Sbar = np.zeros((3, 3, NF, NF))
+    Sbar[0, 0] = Sbar[1, 1] = np.eye(NF) / 2
+    Sbar[0, 1] = [[0, c], [0, 0]]
+    Sbar[1, 0] = Sbar[0, 1].T
+    adv = advise(synthetic(I0=10.0, Sbar=Sbar), q=(1.0, 0.0))
+    # C = q_1 W3[3, 1, :] = (0, c) about axis 3: dI_fT = c^2 / I0_33, dI_Tf = c^2 / I0_33
+    assert rule(adv, "dI_fT").value == pytest.approx(c**2 / 10.0, rel=1e-12)
+    assert rule(adv, "dI_Tf").value == pytest.approx(c**2 / 10.0, rel=1e-12)
+    assert ("coupling" in adv.terms) is (c**2 / 10 > 0.05)
+
+
+def widening_body(sigma=None):
+    """W1[0, 0] = 2 (Ibar_22 + Ibar_33) = 1000 dominates W2: centrifugal ratio about 2e-3."""
+    Ibar = np.zeros((3, 3, NF))
+    Ibar[1, 1, 0] = 500.0
+    return synthetic(I0=1e6, Ibar=Ibar, sigma=sigma)
+
+
+def test_widening_rule_by_user_and_by_centrifugal_stress():
+    assert advise(widening_body(), widening=True).level == "II"
+    assert rule(advise(widening_body()), "widening").fired is None  # no speed: not evaluated
+    sigma = np.array([1.0, 1.0])
+    for w, fires in ((60.0, True), (20.0, False)):
+        adv = advise(widening_body(sigma), w_op=w)
+        expected = (0.5 * 1000.0 * w**2 / LAM[0]) * sigma[0] / 500.0  # sum_p |q_c,p| sigma_p / sigma_allow
+        assert rule(adv, "widening").value == pytest.approx(expected, rel=1e-12)
+        assert ("cf1" in adv.terms) is fires
+
+
+def test_cf2_needs_widening_and_a_large_centrifugal_measure():
+    body = widening_body()
+    assert "cf2" not in advise(body, w_op=10.0, widening=True).terms
+    loud = advise(body, w_op=150.0, widening=True, f_sys=1e4)  # (w/s_crit)^2 = (150/200)^2 about axes 2, 3
+    assert "cf2" in loud.terms and loud.level == "III"
+    assert "cf2" not in advise(body, w_op=150.0, widening=False).terms
+    # W1 = 0 (symmetric body): cf2 is the only centrifugal term, the ratio is infinite and cf2 is kept
+    symmetric = advise(synthetic(), widening=True)
+    assert "cf2" in symmetric.terms and rule(symmetric, "cf2").value == np.inf
+
+
+def test_coriolis_rules_follow_speed_ratio_and_connection():
+    body = synthetic(I0=1e6)
+    assert rule(advise(body), "speed_ratio").fired is None
+    fast = advise(body, w_op=2 * np.pi * 20.0, f_sys=100.0)  # ratio 0.2
+    assert rule(fast, "speed_ratio").value == pytest.approx(0.2) and "cor1" in fast.terms
+    assert fast.level == "IV" and "cor_full" not in fast.terms
+    assert "cor1" not in advise(body, w_op=2 * np.pi * 5.0, f_sys=100.0).terms
+    assert "cor1" not in advise(body, w_op=2 * np.pi * 20.0, f_sys=100.0, connection="stiff").terms
+    beam_like = advise(synthetic(I0=10.0), w_op=2 * np.pi * 20.0, f_sys=100.0)
+    assert {"inertia_quad", "cor1", "cor_full"} <= set(beam_like.terms) and beam_like.energy_consistent
+
+
+def test_f_sys_default_warns():
+    adv = advise(synthetic(), w_op=10.0)
+    assert any("f_sys not given" in w for w in adv.warnings)
+
+
+def test_speed_parsing():
+    assert parse_speed("3000rpm") == pytest.approx(100 * np.pi)
+    assert parse_speed("50Hz") == pytest.approx(100 * np.pi)
+    assert parse_speed("314 rad/s") == 314.0 and parse_speed("12") == 12.0
+    for bad in ("fast", "-3rpm", "3000 rpms", "nan"):
+        with pytest.raises(FFRFError):
+            parse_speed(bad)
+
+
+def test_q_max_procedure_and_cap_conversion(block_body):
+    amp = q_max(block_body)
+    q1 = min(1.0, 500.0 / block_body.sigma_max[0])
+    assert amp.q_max[0] == pytest.approx(q1, rel=1e-14)
+    assert np.allclose(amp.q_max, q1 * block_body.eigenvalues[0] / block_body.eigenvalues, rtol=1e-14)
+    si = q_max(block_body.converted(SI))
+    assert si.q_cap == pytest.approx(factor(TMM, SI, "q"), rel=1e-15)
+    assert np.allclose(si.q_max, amp.q_max * factor(TMM, SI, "q"), rtol=1e-12)
+    capped = q_max(block_body, AmplitudeOptions(deflection_cap=1e-6))
+    assert capped.governs[0] == "deflection"
+    assert capped.deflection_ratio[0] == pytest.approx(1e-6, rel=1e-12)
+
+
+def test_body_without_stress_warns():
+    amp = q_max(synthetic())
+    assert amp.governs[0] == "cap" and any("no modal stress" in w for w in amp.warnings)
+
+
+def test_ratios_are_invariant_to_the_scale_of_w(block_body, rng):
+    q = rng.normal(size=block_body.nf) * 0.1
+    qd = rng.normal(size=block_body.nf)
+    w = rng.normal(size=3)
+    a = [np.linalg.norm(t) for t in coriolis_terms(block_body, q, qd, w)]
+    b = [np.linalg.norm(t) for t in coriolis_terms(block_body, q, qd, 7.5 * w)]
+    assert a[0] / a[1] == pytest.approx(b[0] / b[1], rel=1e-12)
+    c = [np.linalg.norm(t) for t in centrifugal_terms(block_body, q, w)]
+    d = [np.linalg.norm(t) for t in centrifugal_terms(block_body, q, 7.5 * w)]
+    assert c[0] / c[1] == pytest.approx(d[0] / d[1], rel=1e-12)
+
+
+def test_dimensionless_outputs_are_unit_invariant(block_body):
+    opts = Options(situation=Situation(w_op=500.0, f_sys=300.0))
+    a, b = analyze(block_body, opts), analyze(block_body.converted(SI), opts)
+    assert a.advice.level == b.advice.level and a.advice.terms == b.advice.terms
+    for name in ("dI_L", "dI_Q", "dI_fT", "dI_Tf"):
+        x, y = getattr(a.significance, name), getattr(b.significance, name)
+        assert np.abs(x - y).max() <= 1e-12 * np.abs(x).max()
+    assert a.significance.coriolis.value == pytest.approx(b.significance.coriolis.value, rel=1e-12)
+    assert a.significance.centrifugal.value == pytest.approx(b.significance.centrifugal.value, rel=1e-12)
+    for ra, rb in zip(a.advice.rules, b.advice.rules):
+        assert ra.fired == rb.fired
+        if ra.value is not None:
+            assert ra.value == pytest.approx(rb.value, rel=1e-12)
+
+
+def test_slender_beam_is_III_with_quadratic_inertia_about_its_long_axis():
+    beam = read_body(SAMPLE, load_fe=True)  # 40 x 20 x 1000 mm: length/width 25
+    result = analyze(beam)
+    sig = result.significance
+    assert result.advice.level == "III" and "inertia_quad" in result.advice.terms
+    assert np.unravel_index(np.argmax(sig.dI_Q), sig.dI_Q.shape)[0] == 2
+    assert sig.dI_Q[2].max() > 10 * max(sig.dI_L.max(), sig.dI_Q[:2].max())
+
+
+def test_softening_speeds_of_the_beam_are_its_bending_frequencies():
+    """Theory section 9: about the long axis and the stiff transverse axis s_crit = first bending."""
+    beam = read_body(SAMPLE)
+    s = significance(beam, q_max(beam).q_max).s_crit
+    omega = 2 * np.pi * beam.frequencies_hz
+    assert s[0] == pytest.approx(omega[0], rel=1e-3) and s[2] == pytest.approx(omega[0], rel=5e-3)
+    assert s[1] == pytest.approx(omega[1], rel=1e-3)
+
+
+def test_compact_block_is_level_I_at_moderate_speed(block_body):
+    result = analyze(block_body, Options(situation=Situation(w_op=parse_speed("1000rpm"))))
+    assert result.advice.level == "I"

@@ -1,0 +1,81 @@
+"""analyze and gate through the real CLI."""
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import jsonschema
+from typer.testing import CliRunner
+
+from ffrf_advisor.cli import app
+
+from .test_cli import SAMPLE
+
+SCHEMA = json.loads((Path(__file__).resolve().parent.parent / "docs" / "json-schema.json").read_text())
+runner = CliRunner()
+
+
+def test_analyze_json_validates_against_the_schema():
+    cases = {("III",): [], ("IV",): ["--speed", "3000rpm", "--connection", "soft"],
+             ("I",): ["--q-max", ",".join(["0.1"] * 16)]}  # dI_Q = 0.27 (0.1 / 0.53)^2 < 0.05
+    for (level,), args in cases.items():
+        result = runner.invoke(app, ["analyze", str(SAMPLE), "--json", *args])
+        assert result.exit_code == 0, result.output
+        data = json.loads(result.output)
+        jsonschema.validate(data, SCHEMA)
+        assert data["level"] == level
+    broken = dict(data, level="V")
+    try:
+        jsonschema.validate(broken, SCHEMA)
+        raise AssertionError("schema accepted level V")
+    except jsonschema.ValidationError:
+        pass
+
+
+def test_analyze_table_shows_level_first():
+    result = runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "100rad/s"], env={"COLUMNS": "200"})
+    assert result.exit_code == 0
+    assert result.output.splitlines()[0].startswith("beam: level IV")
+    assert "evidence per rule" in result.output
+
+
+def test_config_file_and_bad_options(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ffrf-advisor.toml").write_text("[thresholds]\ndI_Q = 0.5\ndI_fT = 0.5\ndI_Tf = 0.5\n")
+    result = runner.invoke(app, ["analyze", str(SAMPLE), "--json"])
+    assert json.loads(result.output)["level"] == "I"
+    (tmp_path / "ffrf-advisor.toml").write_text("[thresholds]\nbogus = 1\n")
+    result = runner.invoke(app, ["analyze", str(SAMPLE)])
+    assert result.exit_code == 2 and "bogus" in result.output
+    (tmp_path / "ffrf-advisor.toml").unlink()
+    (tmp_path / "pyproject.toml").write_text("[tool.ffrf-advisor]\nconnection = 'stiff'\n")
+    assert json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--json"]).output)["level"] == "I"
+    for bad in (["--speed", "fast"], ["--connection", "glued"], ["--threshold", "nope=1"], ["--q-max", "1,2"]):
+        result = runner.invoke(app, ["analyze", str(SAMPLE), *bad])
+        assert result.exit_code == 2, bad
+
+
+def test_gate_exit_codes_and_junit(tmp_path):
+    junit = tmp_path / "gate.xml"
+    ok = runner.invoke(app, ["gate", str(SAMPLE), "--max-level", "III", "--junit", str(junit)])
+    assert ok.exit_code == 0
+    suite = ET.parse(junit).getroot()
+    assert suite.get("tests") == "1" and suite.get("failures") == "0"
+
+    over = runner.invoke(app, ["gate", str(SAMPLE), str(SAMPLE), "--max-level", "II", "--junit", str(junit),
+                               "--jobs", "2"])
+    assert over.exit_code == 1
+    suite = ET.parse(junit).getroot()
+    failures = suite.findall("testcase/failure")
+    assert len(failures) == 2 and "dI_Q" in failures[0].text and "exceeds II" in failures[0].get("message")
+
+    junk = tmp_path / "junk.ffrf.h5"
+    junk.write_text("x")
+    bad = runner.invoke(app, ["gate", str(SAMPLE), str(junk), "--max-level", "IV", "--junit", str(junit), "--json"])
+    assert bad.exit_code == 2
+    assert ET.parse(junit).getroot().get("errors") == "1"
+    data = json.loads(bad.output)
+    assert [b["level"] for b in data["bodies"]] == ["III", None]
+    assert runner.invoke(app, ["gate", str(SAMPLE), "--max-level", "V"]).exit_code == 2
+    assert runner.invoke(app, ["gate", str(SAMPLE)]).exit_code == 2  # usage: --max-level missing

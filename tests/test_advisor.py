@@ -97,6 +97,8 @@ def test_cf2_needs_widening_and_a_large_centrifugal_measure():
     assert "cf2" not in advise(body, w_op=10.0, widening=True).terms
     loud = advise(body, w_op=150.0, widening=True, f_sys=1e4)  # (w/s_crit)^2 = (150/200)^2 about axes 2, 3
     assert "cf2" in loud.terms and loud.level == "III"
+    assert any("softening limit" in w for w in loud.warnings)  # 150 / 200 > 0.5
+    assert not any("softening limit" in w for w in advise(body, w_op=10.0, f_sys=1e4).warnings)
     assert "cf2" not in advise(body, w_op=150.0, widening=False).terms
     # W1 = 0 (symmetric body): cf2 is the only centrifugal term, the ratio is infinite and cf2 is kept
     symmetric = advise(synthetic(), widening=True)

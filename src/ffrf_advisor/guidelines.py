@@ -130,7 +130,7 @@ def _per_second(body: FlexibleBody) -> float:
     return float(TIME[body.units.time])
 
 
-def _rule_II(body, amp: Amplitudes, sig: Significance, sit: Situation, w_op) -> Rule:
+def _rule_II(body, amp: Amplitudes, sit: Situation, w_op) -> Rule:
     thr = sit.threshold("widening_stress")
     if sit.widening is not None:
         return Rule("II", "widening", None, None, sit.widening, ("cf1",) if sit.widening else (),
@@ -175,7 +175,7 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
     rules = [Rule("I", "baseline", None, None, True, ("gyro0",), "gyroscopic term with I0 is always kept")]
     warnings = list(amp.warnings)
 
-    rule2 = _rule_II(body, amp, sig, sit, w_op)
+    rule2 = _rule_II(body, amp, sit, w_op)
     rules.append(rule2)
     widening = bool(rule2.fired)
 

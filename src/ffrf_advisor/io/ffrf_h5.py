@@ -239,7 +239,7 @@ def read(path: str | os.PathLike, load_fe: bool = False) -> FlexibleBody:
         raise BodyFileError(path, "file", "an existing file", "not found")
     try:
         f = h5py.File(path, "r")
-    except OSError as e:
+    except OSError:
         raise BodyFileError(path, "file", "an HDF5 file", "unreadable or corrupt HDF5") from None
     with f:
         try:

@@ -7,18 +7,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from .fe.mesh import Mesh
-from .invariants import ShapeIntegrals, principal_axes
+from .invariants import ShapeIntegrals, frozen_array, principal_axes
 from .units import TMM, Units, factor
 
 MASS_KINDS = ("consistent", "lumped", "unknown")
-
-
-def _frozen(a):
-    if a is None:
-        return None
-    a = np.array(a, dtype=float)
-    a.flags.writeable = False
-    return a
 
 
 @dataclass(frozen=True)
@@ -49,8 +41,8 @@ class ModalFE:
     stress_nodal: np.ndarray | None = None  # von Mises (n, nf) per unit modal coordinate
 
     def __post_init__(self):
-        object.__setattr__(self, "Phi", _frozen(self.Phi))
-        object.__setattr__(self, "stress_nodal", _frozen(self.stress_nodal))
+        object.__setattr__(self, "Phi", frozen_array(self.Phi))
+        object.__setattr__(self, "stress_nodal", frozen_array(self.stress_nodal))
 
     def max_deflection(self) -> np.ndarray:
         """Largest nodal displacement magnitude of each mode at unit modal coordinate (nf,)."""
@@ -95,8 +87,8 @@ class FlexibleBody:
     fe: ModalFE | None = None
 
     def __post_init__(self):
-        object.__setattr__(self, "eigenvalues", _frozen(self.eigenvalues))
-        object.__setattr__(self, "sigma_max", _frozen(self.sigma_max))
+        object.__setattr__(self, "eigenvalues", frozen_array(self.eigenvalues))
+        object.__setattr__(self, "sigma_max", frozen_array(self.sigma_max))
         nf = self.integrals.nf
         if self.eigenvalues.shape != (nf,):
             raise ValueError(f"eigenvalues: expected shape ({nf},), got {self.eigenvalues.shape}")

@@ -12,7 +12,7 @@ import numpy as np
 from .amplitudes import Amplitudes
 from .body import FlexibleBody
 from .errors import FFRFError
-from .significance import Significance, coriolis_terms
+from .significance import Significance, coriolis_terms, f_cf1, ratio_state
 from .units import TIME
 
 THRESHOLDS = {
@@ -142,9 +142,7 @@ def _rule_II(body, amp: Amplitudes, sit: Situation, w_op) -> Rule:
         return Rule("II", "widening", None, thr, None, (), "not evaluated: no modal stress data")
     stress = 0.0
     for k in range(3):  # spin about each principal axis; the largest centrifugal stress decides
-        w = w_op * np.eye(3)[k]
-        f_cf1 = np.einsum("k,kp->p", w, (0.5 * body.W1.T @ w).reshape(3, -1))
-        q_c = f_cf1 / body.eigenvalues
+        q_c = f_cf1(body, w_op * np.eye(3)[k]) / body.eigenvalues
         stress = max(stress, float(np.abs(q_c) @ body.sigma_max))
     value = stress / amp.sigma_allow
     fired = value > thr
@@ -250,10 +248,7 @@ def _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired) -> list[Rule
 
 def _coriolis_torque(body: FlexibleBody, amp: Amplitudes, sig: Significance, w_op: float) -> float:
     """|deformation-dependent rotational Coriolis| / (|I0| w_op^2) at w = w_op (1,1,1)/sqrt 3."""
-    n = sig.n_ratio
-    q = np.zeros(body.nf)
-    q[:n] = amp.q_max[:n]
-    qd = np.sqrt(body.eigenvalues) * q
+    q, qd = ratio_state(body, amp.q_max, sig.n_ratio)
     w = w_op * np.ones(3) / np.sqrt(3)
     dep, _ = coriolis_terms(body, q, qd, w)
     scale = np.linalg.norm(body.I0) * w_op**2

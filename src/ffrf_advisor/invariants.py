@@ -25,7 +25,10 @@ def _sym(a: np.ndarray) -> np.ndarray:
     return 0.5 * (a + a.T)
 
 
-def _frozen(a: np.ndarray) -> np.ndarray:
+def frozen_array(a):
+    """A read-only float copy of a (None stays None): immutable body data."""
+    if a is None:
+        return None
     a = np.array(a, dtype=float)
     a.flags.writeable = False
     return a
@@ -52,7 +55,7 @@ class ShapeIntegrals:
 
     def __post_init__(self):
         for name in ("first_moment", "I", "Ibar", "Sbar", "mode_sum"):
-            object.__setattr__(self, name, _frozen(getattr(self, name)))
+            object.__setattr__(self, name, frozen_array(getattr(self, name)))
         object.__setattr__(self, "mass", float(self.mass))
 
     @property

@@ -98,21 +98,26 @@ def coriolis_terms(body: FlexibleBody, q: np.ndarray, qd: np.ndarray, w: np.ndar
     return dependent, body.W1 @ Qd @ w
 
 
+def f_cf1(body: FlexibleBody, w: np.ndarray) -> np.ndarray:
+    """Constant centrifugal modal force [w I] 0.5 W1^T w (term cf1, theory section 5)."""
+    return _wI(w, 0.5 * body.W1.T @ w)
+
+
 def centrifugal_terms(body: FlexibleBody, q: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """([w I] W2 Qf w, [w I] 0.5 W1^T w) of theory section 5."""
-    return _wI(w, body.W2 @ Qf(q) @ w), _wI(w, 0.5 * body.W1.T @ w)
+    return _wI(w, body.W2 @ Qf(q) @ w), f_cf1(body, w)
 
 
-def _first(q_max: np.ndarray, n: int) -> np.ndarray:
+def ratio_state(body: FlexibleBody, q_max: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """q and q' of the ratios: first n modes at q_max,p vibrating at Omega_p (theory section 7)."""
     q = np.zeros_like(q_max)
     q[:n] = q_max[:n]
-    return q
+    return q, np.sqrt(body.eigenvalues) * q
 
 
 def norm_ratios(body: FlexibleBody, q_max: np.ndarray, n_ratio: int) -> tuple[Ratio, Ratio]:
     """Coriolis (G Table 4) and centrifugal (G Table 5) ratios, first n_ratio modes at q_max, w = (1,1,1)."""
-    q = _first(q_max, n_ratio)
-    qd = np.sqrt(body.eigenvalues) * q
+    q, qd = ratio_state(body, q_max, n_ratio)
     w = np.ones(3)
     dep, const = coriolis_terms(body, q, qd, w)
     cf2, cf1 = centrifugal_terms(body, q, w)

@@ -14,6 +14,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .fe.assembly import full_mass
+from .fe.modal import mass_normalised
 from .invariants import I0, principal_axes
 
 RANK_TOL = 1e-10  # relative M-norm below which a projected basis vector is dependent
@@ -61,9 +62,7 @@ def to_section1_form(X: np.ndarray, Ms: sp.sparray, K: sp.sparray, Psi: np.ndarr
     T = V[:, keep] / np.sqrt(d[keep])
     lam, Z = sla.eigh(T.T @ Kr @ T)
     lam = np.asarray(lam)
-    S = P @ (T @ Z)
-    S = S / np.sqrt(np.einsum("ip,ip->p", S, M @ S))
-    S = S * np.sign(S[np.argmax(np.abs(S), axis=0), np.arange(S.shape[1])])
+    S = mass_normalised(P @ (T @ Z), M)
     n, nf = len(X), S.shape[1]
     Phi = np.einsum("ak,iap->ikp", R, S.reshape(n, 3, nf))
     return BasisTransform(lam, Phi, Xc @ R, c, R, int(Psi.shape[1] - nf))

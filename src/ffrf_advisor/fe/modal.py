@@ -48,11 +48,14 @@ def free_free_modes(K: sp.sparray, Ms: sp.sparray, n_flex: int, shift: float | N
             f"expected six rigid modes below {RIGID_TOL:g} x the first flexible eigenvalue, found "
             f"eigenvalues {', '.join(f'{x:.3e}' for x in lam[:N_RIGID + 1])}: the body is not free-free "
             "or not connected")
-    Phi = vec[:, N_RIGID:]
-    Phi = Phi / np.sqrt(np.einsum("ip,ip->p", Phi, M @ Phi))
-    sign = np.sign(Phi[np.argmax(np.abs(Phi), axis=0), np.arange(Phi.shape[1])])
-    Phi = Phi * sign
+    Phi = mass_normalised(vec[:, N_RIGID:], M)
     return ModalResult(flex, Phi.reshape(n3 // 3, 3, n_flex), rigid)
+
+
+def mass_normalised(S: np.ndarray, M: sp.sparray) -> np.ndarray:
+    """Columns scaled to S^T M S = 1 and signed so that their largest component is positive."""
+    S = S / np.sqrt(np.einsum("ip,ip->p", S, M @ S))
+    return S * np.sign(S[np.argmax(np.abs(S), axis=0), np.arange(S.shape[1])])
 
 
 def _rayleigh_scale(K: sp.sparray, M: sp.sparray) -> float:

@@ -14,7 +14,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from .fe.assembly import full_mass
-from .fe.modal import mass_normalised
+from .fe.modal import mass_normalised, rigid_modes, without_rigid
 from .invariants import I0, principal_axes
 
 RANK_TOL = 1e-10  # relative M-norm below which a projected basis vector is dependent
@@ -32,18 +32,6 @@ class BasisTransform:
     dropped: int           # basis vectors removed as rigid or dependent
 
 
-def rigid_modes(X: np.ndarray) -> np.ndarray:
-    """Six rigid-body modes (3n x 6): translations e_k and rotations e_k x x (i.e. -x~ e_k)."""
-    n = len(X)
-    R = np.zeros((n, 3, 6))
-    for k in range(3):
-        R[:, k, k] = 1.0
-        e = np.zeros(3)
-        e[k] = 1.0
-        R[:, :, 3 + k] = np.cross(e, X)
-    return R.reshape(3 * n, 6)
-
-
 def to_section1_form(X: np.ndarray, Ms: sp.sparray, K: sp.sparray, Psi: np.ndarray) -> BasisTransform:
     """Transform basis Psi (3n x nb, node-interleaved) of the FE model (X, Ms, K) to free-surface modes."""
     M = full_mass(Ms)
@@ -53,8 +41,7 @@ def to_section1_form(X: np.ndarray, Ms: sp.sparray, K: sp.sparray, Psi: np.ndarr
     Xc = X - c
     R = principal_axes(I0(Xc.T @ (Ms @ Xc)))
     rigid = rigid_modes(Xc)
-    MR = M @ rigid
-    P = Psi - rigid @ np.linalg.solve(rigid.T @ MR, MR.T @ Psi)
+    P = without_rigid(Psi, rigid, M)
     Mr = P.T @ (M @ P)
     Kr = P.T @ (K @ P)
     d, V = np.linalg.eigh(0.5 * (Mr + Mr.T))

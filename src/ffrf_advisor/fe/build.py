@@ -20,7 +20,7 @@ def modal_body(mesh: Mesh, material: Material, n_modes: int, name: str = "body",
     """
     Ms = mass_matrix(mesh, material.rho, lumping)
     K = stiffness_matrix(mesh, material)
-    modes = free_free_modes(K, Ms, n_modes)
+    modes = free_free_modes(K, Ms, mesh.points, n_modes)
     stress = modal_von_mises(mesh, material, modes.Phi)
     provenance = Provenance(
         source="ffrf_advisor.fe generator",

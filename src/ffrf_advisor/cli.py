@@ -15,12 +15,14 @@ from .analysis import Options, analyze as run_analysis
 from .checks import run_checks
 from .errors import FFRFError
 from .gate import run_gate, write_junit
-from .guidelines import LEVELS
-from .guidelines import THRESHOLDS, Situation, load_config, parse_speed
-from .io import read_body
+from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, parse_speed
+from .io import format_of, formats, read_body, write_body
 from .io.atomic import atomic_path
+from .report.compare import comparison, comparison_table
 from .report.console import analysis_summary, body_summary
 from .report.json_out import analysis_json
+from .samples import SAMPLES, sample as make_sample
+from .solver_settings import SOLVERS, adams_settings
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Which FFRF inertia terms does a flexible body need? Advice with evidence.")
@@ -56,9 +58,10 @@ def main(version: bool = typer.Option(False, "--version", callback=_version, is_
 
 @app.command()
 @handles_errors
-def info(body: Path = typer.Argument(..., help="Body file (.ffrf.h5).")):
+def info(body: Path = typer.Argument(..., help="Body file (any format, see `formats`)."),
+         eigenvalues: Eigenvalues = None, density: Density = None):
     """Mass, CoM, I0, eigenfrequencies, modal stress and the checks of theory section 4."""
-    b = read_body(body)
+    b = _read(body, eigenvalues, density, load_fe=False)
     body_summary(out, b, run_checks(b))
 
 
@@ -77,14 +80,32 @@ Config = Annotated[Optional[Path], typer.Option("--config", help="TOML config (d
 AsJson = Annotated[bool, typer.Option("--json", help="Print JSON (docs/json-schema.json) instead of tables.")]
 
 
-def _q_max(text: str | None):
+def _numbers(option: str, text: str | None):
+    """Numbers from a comma/blank list or a file of them; None stays None."""
     if text is None:
         return None
     source = Path(text).read_text() if Path(text).is_file() else text
     try:
         return tuple(float(x) for x in source.replace(",", " ").split())
     except ValueError:
-        raise FFRFError(f"--q-max: expected numbers separated by commas or blanks (or a file of them), got {text!r}")
+        raise FFRFError(f"{option}: expected numbers separated by commas or blanks (or a file of them), "
+                        f"got {text!r}") from None
+
+
+Eigenvalues = Annotated[Optional[str], typer.Option(
+    "--eigenvalues", help="meshio meshes: eigenvalues [1/s^2] as a comma list or a file (else field data).")]
+Density = Annotated[Optional[float], typer.Option(
+    "--density", help="meshio meshes: density [t/mm^3] (else field data).")]
+
+
+def _read(path: Path, eigenvalues: str | None = None, density: float | None = None, fmt: str | None = None,
+          load_fe: bool = True):
+    """Read any format; --eigenvalues/--density go to the meshio reader only."""
+    mesh_options = {k: v for k, v in (("eigenvalues", _numbers("--eigenvalues", eigenvalues)),
+                                      ("density", density)) if v is not None}
+    if mesh_options and format_of(path, fmt).name != "meshio":
+        raise FFRFError(f"{path}: --{'/--'.join(mesh_options)} apply to meshio meshes only")
+    return read_body(path, fmt, load_fe=load_fe, **mesh_options)
 
 
 def _thresholds(items: list[str] | None, base: dict) -> dict:
@@ -108,7 +129,7 @@ def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_
     speed = pick(speed, "speed")
     amp = AmplitudeOptions(sigma_allow=pick(sigma_allow, "sigma_allow", AmplitudeOptions.sigma_allow),
                            q_cap=pick(q_cap, "q_cap", AmplitudeOptions.q_cap),
-                           deflection_cap=pick(deflection_cap, "deflection_cap"), q_max=_q_max(q_max))
+                           deflection_cap=pick(deflection_cap, "deflection_cap"), q_max=_numbers("--q-max", q_max))
     situation = Situation(w_op=None if speed is None else parse_speed(speed), f_sys=pick(f_sys, "f_sys"),
                           connection=pick(connection, "connection", "free"), widening=widening,
                           thresholds=_thresholds(threshold, cfg.get("thresholds", {})))
@@ -120,11 +141,12 @@ def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_
 def analyze(body: Path = typer.Argument(..., help="Body file."), speed: Speed = None, f_sys: FSys = None,
             connection: Connection = None, widening: Widening = None, sigma_allow: SigmaAllow = None,
             q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None, n_ratio: NRatio = None,
-            threshold: Threshold = None, config: Config = None, as_json: AsJson = False):
+            threshold: Threshold = None, config: Config = None, as_json: AsJson = False,
+            eigenvalues: Eigenvalues = None, density: Density = None):
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
                             n_ratio, threshold, config)
-    result = run_analysis(read_body(body, load_fe=True), options)
+    result = run_analysis(_read(body, eigenvalues, density), options)
     if as_json:
         print(json.dumps(analysis_json(result, str(body)), indent=1))
     else:
@@ -158,3 +180,85 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
         raise typer.Exit(EXIT_BAD_INPUT)
     if not all(r["within"] for r in results):
         raise typer.Exit(1)
+
+
+@app.command()
+@handles_errors
+def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed: Speed = None,
+            f_sys: FSys = None, connection: Connection = None, config: Config = None, as_json: AsJson = False):
+    """Paper-style comparison of bodies: frequencies, stress, q_max, inertia, coupling and norm ratios."""
+    options = build_options(speed, f_sys, connection, config=config)
+    analyses = [run_analysis(read_body(b, load_fe=True), options) for b in bodies]
+    data = comparison(analyses, [str(b) for b in bodies])
+    if as_json:
+        print(json.dumps(data, indent=1))
+    else:
+        out.print(comparison_table(data))
+
+
+@app.command()
+@handles_errors
+def sample(name: str = typer.Argument(..., help=f"One of: {', '.join(SAMPLES)}."),
+           output: Path = typer.Option(..., "--output", "-o", help="Body file to write (.ffrf.h5)."),
+           refine: int = typer.Option(1, "--refine", help="Element size divided by this (mesh convergence)."),
+           force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT.")):
+    """Build a sample body from its recipe (docs/samples.md): FE mesh, free-free modes, stress."""
+    if output.exists() and not force:
+        raise FFRFError(f"{output}: exists; refusing to overwrite (use --force)")
+    format_of(output)  # an unknown suffix fails before the minutes of FE work
+    body = make_sample(name, refine)
+    write_body(body, output, overwrite=force)
+    out.print(f"wrote {output}: {body.name}, {body.nf} modes, f1 = {body.frequencies_hz[0]:.4g} Hz, "
+              f"{body.fe.mesh.n_nodes} nodes")
+
+
+@app.command()
+@handles_errors
+def convert(source: Path = typer.Argument(..., help="Body file to read."),
+            target: Path = typer.Argument(..., help="Body file to write."),
+            from_format: Optional[str] = typer.Option(None, "--from", help="Input format name (default: by suffix)."),
+            to_format: Optional[str] = typer.Option(None, "--to", help="Output format name (default: by suffix)."),
+            force: bool = typer.Option(False, "--force", help="Overwrite TARGET."),
+            eigenvalues: Eigenvalues = None, density: Density = None):
+    """Convert a body between formats (see `ffrf-advisor formats`); refuses to overwrite without --force."""
+    if target.exists() and not force:
+        raise FFRFError(f"{target}: exists; refusing to overwrite (use --force)")
+    fmt = format_of(target, to_format)
+    if fmt.write is None:
+        raise FFRFError(f"{target}: format {fmt.name} can be read but not written")
+    body = _read(source, eigenvalues, density, from_format)
+    write_body(body, target, fmt.name, overwrite=force)
+    out.print(f"wrote {target} ({fmt.name}): {body.name}, {body.nf} modes"
+              + ("" if body.fe is not None else ", invariants only"))
+
+
+@app.command("formats")
+def list_formats():
+    """The body file formats: name, suffixes, read/write."""
+    for f in formats():
+        out.print(f"{f.name:12s} {' '.join(f.suffixes):28s} read" + (", write" if f.write else ""))
+
+
+@app.command()
+@handles_errors
+def settings(body: Path = typer.Argument(..., help="Body file."),
+             solver: str = typer.Option("adams", "--solver", help=f"Solver: {', '.join(SOLVERS)}."),
+             speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
+             threshold: Threshold = None, config: Config = None, as_json: AsJson = False,
+             eigenvalues: Eigenvalues = None, density: Density = None):
+    """Solver settings for the advised term set (Adams: coupling option and INVARIANTS= pattern)."""
+    if solver not in SOLVERS:
+        raise FFRFError(f"--solver {solver!r}: expected one of {', '.join(SOLVERS)}")
+    options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config)
+    result = run_analysis(_read(body, eigenvalues, density), options)
+    data = {"level": result.advice.level, "terms": list(result.advice.terms), **adams_settings(result.advice.terms)}
+    if as_json:
+        print(json.dumps(data, indent=1))
+        return
+    out.print(f"level {data['level']}: terms {', '.join(data['terms'])}")
+    out.print(f"Adams: [bold]{data['formulation']}[/bold]   INVARIANTS={data['invariants']}")
+    out.print(f"  {data['statement']}")
+    for term, invs in data["needed_invariants"].items():
+        out.print(f"  {term:13s} needs {', '.join(invs)}")
+    out.print(f"source: {data['source']}", highlight=False)
+    out.print(f"note: {data['pattern_note']}", highlight=False)

@@ -11,5 +11,5 @@ class BodyFileError(FFRFError):
 
     def __init__(self, path, field: str, expected: str, got: str | None = None):
         self.path, self.field, self.expected, self.got = str(path), field, expected, got
-        text = f"{path}: {field}: expected {expected}"
-        super().__init__(text + (f", got {got}" if got is not None else ""))
+        text = f"{path}: {field}: expected {expected}" + (f", got {got}" if got is not None else "")
+        super().__init__(" ".join(text.split()))  # one line, whatever the cause said

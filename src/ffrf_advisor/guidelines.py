@@ -177,25 +177,32 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
     rules.append(rule2)
     widening = bool(rule2.fired)
 
-    measures = {"dI_L": (sig.dI_L.max(), "inertia_lin"), "dI_Q": (sig.dI_Q.max(), "inertia_quad"),
-                "dI_fT": (sig.dI_fT.max(), "coupling"), "dI_Tf": (sig.dI_Tf.max(), "coupling")}
+    measures = {"dI_L": (sig.dI_L, "inertia_lin"), "dI_Q": (sig.dI_Q, "inertia_quad"),
+                "dI_fT": (sig.dI_fT, "coupling"), "dI_Tf": (sig.dI_Tf, "coupling")}
     rule3_fired = False
-    for name, (value, term) in measures.items():
+    for name, (values, term) in measures.items():
         thr = sit.threshold(name)
+        if values is None:
+            rules.append(Rule("III", name, None, thr, None, (), f"not evaluable: {_lacking(body)}"))
+            continue
+        value = values.max()
         over = value > thr
         fired = over and not stiff
         rule3_fired |= fired
         reason = (f"max {name} = {value:.3g} {'>' if over else '<='} {thr:g}"
                   + ("; body stiffly connected: I0 suffices" if over and stiff else ""))
         rules.append(Rule("III", name, float(value), thr, fired, (term,) if fired else (), reason))
-    rules.append(_rule_cf2(sig, sit, w_op, widening, stiff))
+    rules.append(_rule_cf2(body, sig, sit, w_op, widening, stiff))
     rule3_fired |= bool(rules[-1].fired)
 
     ratio, w = _speed_ratio(body, sit)
     warnings += w
     rules += _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired)
 
-    if w_op is not None and np.isfinite(sig.s_crit).any():
+    if sig.not_evaluable:
+        warnings.append(f"decided without {', '.join(sig.not_evaluable)} ({_lacking(body)}); "
+                        "the level may be too low for beam-like or rotationally soft bodies")
+    if w_op is not None and sig.s_crit is not None and np.isfinite(sig.s_crit).any():
         k = int(np.argmin(sig.s_crit))
         r = w_op / sig.s_crit[k]
         if r > sit.threshold("softening_warning"):
@@ -212,11 +219,18 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
     return Advice(level, terms, tuple(rules), tuple(warnings), consistent)
 
 
-def _rule_cf2(sig: Significance, sit: Situation, w_op, widening: bool, stiff: bool) -> Rule:
+def _lacking(body: FlexibleBody) -> str:
+    return f"the body has no {' and no '.join(body.integrals.missing)} (e.g. an invariants file without I9)"
+
+
+def _rule_cf2(body: FlexibleBody, sig: Significance, sit: Situation, w_op, widening: bool, stiff: bool) -> Rule:
     thr = sit.threshold("centrifugal_ratio")
-    cr = sig.centrifugal.value
     if not widening:
-        return Rule("III", "cf2", cr, thr, False, (), "widening does not matter (rule II): cf2 not needed")
+        value = None if sig.centrifugal is None else sig.centrifugal.value
+        return Rule("III", "cf2", value, thr, False, (), "widening does not matter (rule II): cf2 not needed")
+    if sig.centrifugal is None:
+        return Rule("III", "cf2", None, thr, None, (), f"not evaluable: {_lacking(body)}")
+    cr = sig.centrifugal.value
     soft = None if w_op is None else float((w_op / sig.s_crit.min()) ** 2)
     over = (cr is not None and cr > thr) or (soft is not None and soft > sit.threshold("softening"))
     fired = over and not stiff
@@ -234,8 +248,15 @@ def _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired) -> list[Rule
     rules = [Rule("IV", "speed_ratio", float(ratio), thr, fired, ("cor1",) if fired else (),
                   f"w_op / (2 pi f_sys) = {ratio:.3g} {'>=' if fast else '<'} {thr:g}"
                   + ("; stiffly connected" if fast and stiff else ""))]
-    torque = _coriolis_torque(body, amp, sig, w_op)
     cthr = sit.threshold("coriolis_torque")
+    if sig.coriolis is None:
+        full = fired and rule3_fired
+        reason = ("rule III fired (beam-like or rotationally soft body)" if full
+                  else f"not evaluable: {_lacking(body)}")
+        rules.append(Rule("IV", "cor_full", None, cthr, True if full else (None if fired else False),
+                          ("cor_full",) if full else (), reason))
+        return rules
+    torque = _coriolis_torque(body, amp, sig, w_op)
     cr = sig.coriolis.value
     by_ratio = cr is not None and cr > sit.threshold("coriolis_ratio") and torque > cthr
     full = fired and (rule3_fired or by_ratio)

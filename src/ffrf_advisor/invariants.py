@@ -42,21 +42,33 @@ class ShapeIntegrals:
     first_moment  sum m x                 (3,)
     I             I_kl = sum m x_k x_l    (3, 3)
     Ibar          Ibar[k, l] = x_k^T Ms Phi_l     (3, 3, nf)
-    Sbar          Sbar[k, l] = Phi_k^T Ms Phi_l   (3, 3, nf, nf)
+    Sbar          Sbar[k, l] = Phi_k^T Ms Phi_l   (3, 3, nf, nf), or None when unknown
     mode_sum      sum m S = 1^T Ms Phi_k  (3, nf)  (zero for free-surface modes)
+    spin          W3 as (3, nf, nf) when only it is known (an invariants file
+                  with Adams' I5 but no I9); None when Sbar is given
+
+    Without Sbar, W2 is not evaluable (None), and so is W3 unless ``spin`` is given.
     """
 
     mass: float
     first_moment: np.ndarray
     I: np.ndarray
     Ibar: np.ndarray
-    Sbar: np.ndarray
+    Sbar: np.ndarray | None
     mode_sum: np.ndarray
+    spin: np.ndarray | None = None
 
     def __post_init__(self):
-        for name in ("first_moment", "I", "Ibar", "Sbar", "mode_sum"):
+        for name in ("first_moment", "I", "Ibar", "Sbar", "mode_sum", "spin"):
             object.__setattr__(self, name, frozen_array(getattr(self, name)))
         object.__setattr__(self, "mass", float(self.mass))
+        if self.Sbar is not None:
+            object.__setattr__(self, "spin", None)
+
+    @property
+    def missing(self) -> tuple[str, ...]:
+        """Invariants that cannot be evaluated from the data: 'W2', 'W3'."""
+        return (("W2",) if self.Sbar is None else ()) + (("W3",) if self.W3() is None else ())
 
     @property
     def nf(self) -> int:
@@ -73,11 +85,13 @@ class ShapeIntegrals:
     def W1(self) -> np.ndarray:
         return W1(self.Ibar)
 
-    def W2(self) -> np.ndarray:
-        return W2(self.Sbar)
+    def W2(self) -> np.ndarray | None:
+        return None if self.Sbar is None else W2(self.Sbar)
 
-    def W3(self) -> np.ndarray:
-        return W3(self.Sbar)
+    def W3(self) -> np.ndarray | None:
+        if self.Sbar is not None:
+            return W3(self.Sbar)
+        return None if self.spin is None else self.spin.reshape(3 * self.nf, self.nf)
 
     def mean_axis_residual(self) -> np.ndarray:
         """sum m u0~ S (3, nf): zero for modes satisfying the mean-axis conditions."""
@@ -98,8 +112,9 @@ class ShapeIntegrals:
             first_moment=R.T @ self.first_moment,
             I=_sym(R.T @ self.I @ R),
             Ibar=np.einsum("ak,bl,abp->klp", R, R, self.Ibar),
-            Sbar=np.einsum("ak,bl,abpr->klpr", R, R, self.Sbar),
+            Sbar=None if self.Sbar is None else np.einsum("ak,bl,abpr->klpr", R, R, self.Sbar),
             mode_sum=R.T @ self.mode_sum,
+            spin=None if self.spin is None else np.einsum("ak,apr->kpr", R, self.spin),
         )
 
     def converted(self, src: Units, dst: Units) -> "ShapeIntegrals":
@@ -111,6 +126,7 @@ class ShapeIntegrals:
             Ibar=self.Ibar * factor(src, dst, "Ibar"),
             Sbar=self.Sbar,
             mode_sum=self.mode_sum * factor(src, dst, "mode_sum"),
+            spin=self.spin,
         )
 
 

@@ -42,17 +42,22 @@ class Ratio:
 
 @dataclass(frozen=True)
 class Significance:
-    """All measures per mode p and axis k at q = q_max,p e_p (one mode at a time)."""
+    """All measures per mode p and axis k at q = q_max,p e_p (one mode at a time).
+
+    Measures that need W2 or W3 are None when the body lacks them (an
+    invariants file without I9); ``not_evaluable`` names them.
+    """
 
     dI_L: np.ndarray   # (3, nf) |(W1 Qf)_kk| / I0_kk
-    dI_Q: np.ndarray   # (3, nf) |(Qf^T W2 Qf)_kk| / I0_kk
-    dI_fT: np.ndarray  # (3, nf) (C C^T)_kk / I0_kk, C = Qf^T W3
-    dI_Tf: np.ndarray  # (nf,)   max_r (C^T I0^-1 C)_rr
+    dI_Q: np.ndarray | None   # (3, nf) |(Qf^T W2 Qf)_kk| / I0_kk
+    dI_fT: np.ndarray | None  # (3, nf) (C C^T)_kk / I0_kk, C = Qf^T W3
+    dI_Tf: np.ndarray | None  # (nf,)   max_r (C^T I0^-1 C)_rr
     magnitudes: dict[str, Magnitudes]
     n_ratio: int
-    coriolis: Ratio    # |deformation-dependent rotational Coriolis| / |W1 Qf' w|, w = (1,1,1)
-    centrifugal: Ratio  # |[w I] W2 Qf w| / |[w I] 0.5 W1^T w|
-    s_crit: np.ndarray  # (3,) centrifugal-softening critical speeds about the principal axes
+    coriolis: Ratio | None    # |deformation-dependent rotational Coriolis| / |W1 Qf' w|, w = (1,1,1)
+    centrifugal: Ratio | None  # |[w I] W2 Qf w| / |[w I] 0.5 W1^T w|
+    s_crit: np.ndarray | None  # (3,) centrifugal-softening critical speeds about the principal axes
+    not_evaluable: tuple[str, ...] = ()
 
 
 def magnitudes(a: np.ndarray) -> Magnitudes:
@@ -62,13 +67,15 @@ def magnitudes(a: np.ndarray) -> Magnitudes:
 
 
 def inertia_change(body: FlexibleBody, q_max: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """dI_L[k, p] and dI_Q[k, p] (G28): diagonal of W1 Qf and Qf^T W2 Qf over I0_kk."""
+    """dI_L[k, p] and dI_Q[k, p] (G28): diagonal of W1 Qf and Qf^T W2 Qf over I0_kk (dI_Q None without W2)."""
     nf = body.nf
     I0kk = np.diag(body.I0)
     W1 = body.W1.reshape(3, 3, nf)
-    W2 = body.W2.reshape(3, nf, 3, nf)
     k = np.arange(3)
     dI_L = np.abs(W1[k, k, :]) * q_max / I0kk[:, None]
+    if body.W2 is None:
+        return dI_L, None
+    W2 = body.W2.reshape(3, nf, 3, nf)
     dI_Q = np.abs(np.einsum("kpkp->kp", W2)) * q_max**2 / I0kk[:, None]
     return dI_L, dI_Q
 
@@ -142,9 +149,19 @@ def softening_speeds(body: FlexibleBody) -> np.ndarray:
 def significance(body: FlexibleBody, q_max: np.ndarray, n_ratio: int | None = None) -> Significance:
     """Every measure of theory section 7 for the body at the given q_max."""
     n = min(N_RATIO, body.nf) if n_ratio is None else min(n_ratio, body.nf)
+    missing = body.integrals.missing
     dI_L, dI_Q = inertia_change(body, q_max)
-    dI_fT, dI_Tf = coupling(body, q_max)
-    cor, cf = norm_ratios(body, q_max, n)
-    mags = {"I0": magnitudes(body.I0), "W1": magnitudes(body.W1),
-            "W2": magnitudes(body.W2), "W3": magnitudes(body.W3)}
-    return Significance(dI_L, dI_Q, dI_fT, dI_Tf, mags, n, cor, cf, softening_speeds(body))
+    dI_fT, dI_Tf = (None, None) if "W3" in missing else coupling(body, q_max)
+    cor, cf = (None, None) if missing else norm_ratios(body, q_max, n)
+    mags = {name: magnitudes(getattr(body, name)) for name in ("I0", "W1", "W2", "W3") if name not in missing}
+    s_crit = None if "W2" in missing else softening_speeds(body)
+    return Significance(dI_L, dI_Q, dI_fT, dI_Tf, mags, n, cor, cf, s_crit, not_evaluable(missing))
+
+
+NEEDS = {"dI_Q": ("W2",), "dI_fT": ("W3",), "dI_Tf": ("W3",), "coriolis_ratio": ("W2", "W3"),
+         "centrifugal_ratio": ("W2",), "s_crit": ("W2",)}
+
+
+def not_evaluable(missing: tuple[str, ...]) -> tuple[str, ...]:
+    """The measures of theory section 7 that need an invariant in ``missing``."""
+    return tuple(name for name, needs in NEEDS.items() if set(needs) & set(missing))

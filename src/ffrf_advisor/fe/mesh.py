@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -34,6 +34,14 @@ class Mesh:
     def transformed(self, rotation: np.ndarray, shift: np.ndarray) -> "Mesh":
         """The same mesh with points x -> rotation @ x + shift."""
         return Mesh(self.points @ np.asarray(rotation).T + shift, dict(self.cells))
+
+    def mapped(self, point_map: Callable[[np.ndarray], np.ndarray]) -> "Mesh":
+        """The same connectivity with every node (corner and mid-side) moved by ``point_map``.
+
+        Mid-side nodes follow the map too, so quadratic elements get curved
+        (isoparametric) edges.
+        """
+        return Mesh(point_map(self.points.copy()), dict(self.cells))
 
 
 @dataclass(frozen=True)
@@ -102,3 +110,30 @@ def box_mesh(size: Sequence[float], divisions: Sequence[int], cell_type: str = "
     lo = -size / 2 if centred else np.zeros(3)
     box = Box(tuple(lo), tuple(lo + size))
     return box_union_mesh([box], size / np.asarray(divisions, float), cell_type)
+
+
+def round_hole(centre: Sequence[float], axis: int, r: float, b: float, a: float) -> Callable[[np.ndarray], np.ndarray]:
+    """Point map turning a square hole into a round one (an "eye").
+
+    In the plane normal to ``axis`` about ``centre``, points of the square
+    ring b <= max(|u|, |v|) <= a move from the square of half-width ``b`` to
+    the circle of radius ``r`` at the inner edge, blending linearly to the
+    identity at the outer square (half-width ``a``), so elements outside the
+    ring are untouched and stay conforming.
+    """
+    plane = [d for d in range(3) if d != axis]
+    c = np.asarray(centre, float)[plane]
+
+    def point_map(x: np.ndarray) -> np.ndarray:
+        u = x[:, plane] - c
+        s = np.abs(u).max(axis=1)
+        ring = (s >= b - 1e-9 * a) & (s <= a + 1e-9 * a)
+        u, s = u[ring], s[ring]
+        t = (s - b) / (a - b)
+        on_circle = r * u / np.linalg.norm(u, axis=1)[:, None]
+        on_square = u * (a / s)[:, None]
+        moved = (1 - t)[:, None] * on_circle + t[:, None] * on_square
+        x[np.ix_(ring, plane)] = c + moved
+        return x
+
+    return point_map

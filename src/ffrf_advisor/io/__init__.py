@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..body import FlexibleBody
-from ..errors import FFRFError
+from ..errors import BodyFileError, FFRFError
 
 
 @dataclass(frozen=True)
@@ -44,9 +44,27 @@ def format_of(path: str | os.PathLike, name: str | None = None) -> Format:
     return max(matches, key=lambda m: m[0])[1]
 
 
+# What a reader may raise on input it did not foresee (corrupt, truncated or hostile files).
+UNFORESEEN = (OSError, ValueError, KeyError, IndexError, TypeError, RuntimeError, EOFError, OverflowError,
+              ArithmeticError, AttributeError, LookupError, RecursionError)  # not MemoryError: a bug to find
+
+
 def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> FlexibleBody:
-    """Read a body from any registered format."""
-    return format_of(path, fmt).read(path, **options)
+    """Read a body from any registered format.
+
+    Readers name the field of every failure they foresee; anything else a
+    damaged file provokes still ends as the project's one-line error.
+    """
+    f = format_of(path, fmt)
+    if not os.path.isfile(path):
+        raise BodyFileError(path, "file", "an existing file", "not found")
+    try:
+        return f.read(path, **options)
+    except FFRFError:
+        raise
+    except UNFORESEEN as e:
+        raise BodyFileError(path, "file", f"a readable {f.name} file",
+                            f"{type(e).__name__}: {str(e)[:160]}") from None
 
 
 def write_body(body: FlexibleBody, path: str | os.PathLike, fmt: str | None = None,
@@ -58,6 +76,6 @@ def write_body(body: FlexibleBody, path: str | os.PathLike, fmt: str | None = No
     f.write(body, path, overwrite=overwrite, **options)
 
 
-from . import ffrf_h5  # noqa: E402  (registers itself)
+from . import calculix, ffinv, ffrf_h5, meshio_modes  # noqa: E402  (register themselves)
 
-__all__ = ["Format", "register", "formats", "format_of", "read_body", "write_body", "ffrf_h5"]
+__all__ = ["Format", "register", "formats", "format_of", "read_body", "write_body", "calculix", "ffinv", "ffrf_h5", "meshio_modes"]

@@ -20,6 +20,7 @@ from ..invariants import ShapeIntegrals, shape_integrals
 from ..units import Units, UnitsError
 from . import Format, register
 from .atomic import atomic_path
+from .hdf5_guard import probe
 
 FORMAT_NAME = "ffrf-body"
 VERSION = 1
@@ -50,8 +51,9 @@ def _write_csr(group: h5py.Group, name: str, A: sp.sparray) -> None:
 def _write_integrals(group: h5py.Group, J: ShapeIntegrals) -> None:
     g = group.create_group("invariants", track_order=True)
     g.attrs["mass"] = J.mass
-    for name in ("first_moment", "I", "Ibar", "Sbar", "mode_sum"):
-        _dataset(g, name, getattr(J, name))
+    for name in ("first_moment", "I", "Ibar", "Sbar", "mode_sum", "spin"):
+        if getattr(J, name) is not None:
+            _dataset(g, name, getattr(J, name))
 
 
 def write(body: FlexibleBody, path: str | os.PathLike, overwrite: bool = False,
@@ -219,8 +221,9 @@ def _cached_integrals(r: _Reader, nf: int) -> ShapeIntegrals:
         first_moment=r.array("invariants/first_moment", (3,)),
         I=r.array("invariants/I", (3, 3)),
         Ibar=r.array("invariants/Ibar", (3, 3, nf)),
-        Sbar=r.array("invariants/Sbar", (3, 3, nf, nf)),
+        Sbar=r.array("invariants/Sbar", (3, 3, nf, nf)) if "invariants/Sbar" in r.f else None,
         mode_sum=r.array("invariants/mode_sum", (3, nf)),
+        spin=r.array("invariants/spin", (3, nf, nf)) if "invariants/spin" in r.f else None,
     )
 
 
@@ -234,9 +237,10 @@ def _phi(r: _Reader, n: int, nf: int) -> h5py.Dataset:
 
 
 def read(path: str | os.PathLike, load_fe: bool = False) -> FlexibleBody:
-    """Read a ``.ffrf.h5`` body. Nodal data are read only when needed or ``load_fe``."""
+    """Read a ``.ffrf.h5`` body. Nodal data are read only when needed or ``load_fe`` (and present)."""
     if not os.path.isfile(path):
         raise BodyFileError(path, "file", "an existing file", "not found")
+    probe(path)
     try:
         f = h5py.File(path, "r")
     except OSError:
@@ -259,7 +263,7 @@ def _read_open(r: _Reader, path, load_fe: bool) -> FlexibleBody:
         r.fail("stress/max", "non-negative von Mises stresses")
     has_fe = "modes/Phi" in r.f
     fe = None
-    if load_fe or "invariants" not in r.f:
+    if (load_fe and has_fe) or "invariants" not in r.f:
         if not has_fe:
             r.fail("modes/Phi", "nodal modes (or a cached invariants group)", "missing")
         fe = _read_fe(r, nf)

@@ -76,13 +76,13 @@ def analysis_summary(console: Console, a) -> None:
     for col in ("axis", "dI_L", "dI_Q", "dI_fT", "s_crit [rad/" + u.time + "]"):
         m.add_column(col, justify="right")
     for k in range(3):
-        m.add_row(str(k + 1), f"{sig.dI_L[k].max():.3e}", f"{sig.dI_Q[k].max():.3e}",
-                  f"{sig.dI_fT[k].max():.3e}", f"{sig.s_crit[k]:.4g}")
+        m.add_row(str(k + 1), _max(sig.dI_L, k), _max(sig.dI_Q, k), _max(sig.dI_fT, k),
+                  "n/a" if sig.s_crit is None else f"{sig.s_crit[k]:.4g}")
     console.print(m)
-    console.print(f"dI_Tf max {sig.dI_Tf.max():.3e};  Coriolis ratio {sig.coriolis.text()} "
-                  f"(|num| {sig.coriolis.numerator:.3e}, |den| {sig.coriolis.denominator:.3e});  "
-                  f"centrifugal ratio {sig.centrifugal.text()} (|num| {sig.centrifugal.numerator:.3e}, "
-                  f"|den| {sig.centrifugal.denominator:.3e});  first {sig.n_ratio} modes")
+    console.print(f"dI_Tf max {_max(sig.dI_Tf)};  Coriolis ratio {_ratio(sig.coriolis)};  "
+                  f"centrifugal ratio {_ratio(sig.centrifugal)};  first {sig.n_ratio} modes")
+    if sig.not_evaluable:
+        console.print(f"not evaluable (n/a): {', '.join(sig.not_evaluable)}")
     g = Table(title="magnitudes (G Tables 2, 3)")
     for col in ("matrix", "max |entry|", "mean |nonzero|", "Frobenius"):
         g.add_column(col, justify="right")
@@ -97,3 +97,16 @@ def analysis_summary(console: Console, a) -> None:
         r.add_row(rule.rule, rule.name, "-" if rule.value is None else f"{rule.value:.3g}",
                   "-" if rule.threshold is None else f"{rule.threshold:g}", fired, ", ".join(rule.terms), rule.reason)
     console.print(r)
+
+
+def _max(values, k=None) -> str:
+    """max of a measure (row k), or 'n/a' when it is not evaluable."""
+    if values is None:
+        return "n/a"
+    return f"{(values if k is None else values[k]).max():.3e}"
+
+
+def _ratio(r) -> str:
+    if r is None:
+        return "n/a"
+    return f"{r.text()} (|num| {r.numerator:.3e}, |den| {r.denominator:.3e})"

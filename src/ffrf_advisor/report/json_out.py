@@ -13,7 +13,7 @@ from ..significance import Ratio
 SCHEMA_VERSION = 1
 
 
-def _num(x):
+def json_number(x):
     """JSON number, or null for inf/NaN/None."""
     if x is None:
         return None
@@ -21,12 +21,14 @@ def _num(x):
     return x if math.isfinite(x) else None
 
 
-def _arr(a):
-    return None if a is None else [_arr(x) if np.ndim(x) else _num(x) for x in np.asarray(a)]
+def json_array(a):
+    return None if a is None else [json_array(x) if np.ndim(x) else json_number(x) for x in np.asarray(a)]
 
 
-def _ratio(r: Ratio) -> dict:
-    return {"value": _num(r.value), "numerator": r.numerator, "denominator": r.denominator,
+def json_ratio(r: Ratio | None) -> dict | None:
+    if r is None:
+        return None
+    return {"value": json_number(r.value), "numerator": r.numerator, "denominator": r.denominator,
             "both_vanish": r.value is None}
 
 
@@ -37,29 +39,30 @@ def analysis_json(a: Analysis, source: str) -> dict:
         "tool": f"ffrf-advisor {__version__}",
         "body": {
             "file": source, "name": b.name, "units": str(b.units), "nf": b.nf, "mass": b.mass,
-            "com": _arr(b.com), "I0": _arr(b.I0), "eigenvalues": _arr(b.eigenvalues),
-            "frequencies": _arr(b.frequencies_hz), "sigma_max": _arr(b.sigma_max),
+            "com": json_array(b.com), "I0": json_array(b.I0), "eigenvalues": json_array(b.eigenvalues),
+            "frequencies": json_array(b.frequencies_hz), "sigma_max": json_array(b.sigma_max),
             "mass_matrix": b.provenance.mass_matrix, "source": b.provenance.source,
         },
         "situation": {
-            "speed_rad_s": _num(sit.w_op), "f_sys_hz": _num(sit.f_sys), "connection": sit.connection,
+            "speed_rad_s": json_number(sit.w_op), "f_sys_hz": json_number(sit.f_sys), "connection": sit.connection,
             "widening": sit.widening, "thresholds": {**THRESHOLDS, **sit.thresholds},
         },
         "level": adv.level,
         "terms": list(adv.terms),
         "energy_consistent": bool(adv.energy_consistent),
         "amplitudes": {
-            "q_max": _arr(amp.q_max), "governs": list(amp.governs), "q_cap": amp.q_cap,
-            "sigma_allow": amp.sigma_allow, "stress_utilisation": _arr(amp.stress_utilisation),
-            "deflection_ratio": _arr(amp.deflection_ratio), "deflection_bounds": _arr(amp.deflection_bounds),
+            "q_max": json_array(amp.q_max), "governs": list(amp.governs), "q_cap": amp.q_cap,
+            "sigma_allow": amp.sigma_allow, "stress_utilisation": json_array(amp.stress_utilisation),
+            "deflection_ratio": json_array(amp.deflection_ratio), "deflection_bounds": json_array(amp.deflection_bounds),
         },
         "significance": {
-            "dI_L": _arr(sig.dI_L), "dI_Q": _arr(sig.dI_Q), "dI_fT": _arr(sig.dI_fT), "dI_Tf": _arr(sig.dI_Tf),
+            "dI_L": json_array(sig.dI_L), "dI_Q": json_array(sig.dI_Q), "dI_fT": json_array(sig.dI_fT), "dI_Tf": json_array(sig.dI_Tf),
             "magnitudes": {k: vars(m) for k, m in sig.magnitudes.items()},
-            "n_ratio": sig.n_ratio, "coriolis_ratio": _ratio(sig.coriolis),
-            "centrifugal_ratio": _ratio(sig.centrifugal), "s_crit": _arr(sig.s_crit),
+            "n_ratio": sig.n_ratio, "coriolis_ratio": json_ratio(sig.coriolis),
+            "centrifugal_ratio": json_ratio(sig.centrifugal), "s_crit": json_array(sig.s_crit),
+            "not_evaluable": list(sig.not_evaluable),
         },
-        "rules": [{"rule": r.rule, "name": r.name, "value": _num(r.value), "threshold": _num(r.threshold),
+        "rules": [{"rule": r.rule, "name": r.name, "value": json_number(r.value), "threshold": json_number(r.threshold),
                    "fired": None if r.fired is None else bool(r.fired), "terms": list(r.terms), "reason": r.reason} for r in adv.rules],
         "warnings": list(adv.warnings),
     }

@@ -1,0 +1,333 @@
+"""CalculiX frequency-step results: ``job.frd`` (+ ``job.dat``, ``job.inp``, ``job.mas/.sti/.dof``).
+
+Read from the .frd (ASCII or binary node/element output): nodes, solid
+elements, mode shapes (DISP) and nodal stresses (STRESS) per mode.
+Eigenvalues come from the .dat table (7 digits) when it is beside the
+.frd, else from the frequencies of the .frd (6 digits). The mass matrix is
+the one CalculiX stored with ``*FREQUENCY, SOLVER=MATRIXSTORAGE`` (.mas,
+.dof) when present, else the consistent mass assembled from the mesh and
+the ``*DENSITY`` of the deck (.inp). Rigid modes (near-zero eigenvalues)
+are dropped; a count other than six is reported in the provenance notes.
+"""
+from __future__ import annotations
+
+import os
+import struct
+from pathlib import Path
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..body import FlexibleBody, ModalFE, Provenance
+from ..errors import BodyFileError
+from ..fe.assembly import full_mass, mass_matrix
+from ..fe.material import Material
+from ..fe.mesh import Mesh
+from ..fe.modal import mass_normalised
+from ..fe.stress import von_mises
+from ..invariants import shape_integrals
+from ..units import TMM
+from . import Format, register
+
+# frd element type -> (meshio type, frd position of each VTK/deck node)
+ELEMENTS = {1: ("hexahedron", list(range(8))),
+            4: ("hexahedron20", list(range(12)) + list(range(16, 20)) + list(range(12, 16)))}
+RIGID_TOL = 1e-6  # |lambda| / largest |lambda| below which a mode is rigid
+N_RIGID = 6
+MAX_COUNT = 10**8  # sanity bound on block sizes from headers
+
+
+class _Frd:
+    """A parsed .frd: node ids and coordinates, elements, and result blocks per mode."""
+
+    def __init__(self, path):
+        self.path = path
+        self.data = Path(path).read_bytes()
+        self.pos = 0
+        self.nodes: np.ndarray | None = None
+        self.ids: np.ndarray | None = None
+        self.elements: dict[str, list] = {}
+        self.results: dict[tuple[int, str], np.ndarray] = {}
+        self.frequencies: dict[int, float] = {}
+        self.mode = 0
+        self._parse()
+
+    def fail(self, field: str, expected: str, got: str | None = None):
+        raise BodyFileError(self.path, field, expected, got)
+
+    def _line(self) -> str:
+        end = self.data.find(b"\n", self.pos)
+        if end < 0:
+            end = len(self.data)
+        line = self.data[self.pos:end].decode("latin-1")
+        self.pos = end + 1
+        return line
+
+    def _take(self, n: int) -> bytes:
+        if n < 0 or self.pos + n > len(self.data):
+            self.fail("frd", "a complete binary block", "truncated file")
+        chunk = self.data[self.pos:self.pos + n]
+        self.pos += n
+        return chunk
+
+    def _parse(self) -> None:
+        while self.pos < len(self.data):
+            line = self._line()
+            key = line[:6].strip()
+            if key == "2C":
+                self._nodes(line)
+            elif key == "3C":
+                self._elements(line)
+            elif line.strip().startswith("1PMODE"):
+                self.mode = self._int(line.split()[-1], "1PMODE")
+            elif line.startswith("  100C"):
+                self._result(line)
+            elif key == "9999":
+                break
+
+    def _int(self, text: str, field: str) -> int:
+        try:
+            return int(text)
+        except ValueError:
+            self.fail(field, "an integer", repr(text[:20]))
+
+    def _header(self, line: str, field: str) -> tuple[int, int]:
+        parts = line.split()
+        if len(parts) < 3:
+            self.fail(field, "a block header with count and format", repr(line[:40]))
+        count, fmt = self._int(parts[1], field), self._int(parts[-1], field)
+        if not 0 <= count <= MAX_COUNT:
+            self.fail(field, f"a count up to {MAX_COUNT}", str(count))
+        return count, fmt
+
+    def _floats(self, line: str, start: int, n: int, field: str) -> list[float]:
+        try:
+            return [float(line[start + 12 * i:start + 12 * (i + 1)]) for i in range(n)]
+        except ValueError:
+            self.fail(field, f"{n} numbers in E12.5 columns", repr(line[:60]))
+
+    def _nodes(self, header: str) -> None:
+        count, fmt = self._header(header, "2C")
+        if fmt >= 2:  # binary: int32 id + 3 float64 (format 3) or float32 (format 2)
+            size = 8 if fmt == 3 else 4
+            raw = self._take(count * (4 + 3 * size))
+            rec = np.frombuffer(raw, np.dtype([("id", "<i4"), ("x", f"<f{size}", 3)]))
+            self.ids, self.nodes = rec["id"].astype(np.int64), rec["x"].astype(float)
+            return
+        width = 10 if fmt == 1 else 5
+        ids, xyz = [], []
+        while True:
+            line = self._line()
+            if line.startswith(" -3") or self.pos >= len(self.data):
+                break
+            ids.append(self._int(line[3:3 + width], "2C node id"))
+            xyz.append(self._floats(line, 3 + width, 3, "2C node coordinates"))
+        self.ids, self.nodes = np.array(ids, np.int64), np.array(xyz, float).reshape(-1, 3)
+
+    def _element_type(self, etype: int) -> tuple[str, list[int]]:
+        if etype not in ELEMENTS:
+            self.fail("3C element type", "8- or 20-node hexahedra (frd types 1, 4)", f"type {etype}")
+        return ELEMENTS[etype]
+
+    def _elements(self, header: str) -> None:
+        count, fmt = self._header(header, "3C")
+        for _ in range(count):
+            if fmt >= 2:
+                _, etype, _, _ = struct.unpack("<4i", self._take(16))
+                cell_type, order = self._element_type(etype)
+                nodes = list(struct.unpack(f"<{len(order)}i", self._take(4 * len(order))))
+            else:
+                head = self._line()
+                if not head.startswith(" -1"):
+                    self.fail("3C", "element records ' -1 id type group material'", repr(head[:40]))
+                cell_type, order = self._element_type(self._int(head.split()[2], "3C element type"))
+                nodes = []
+                while len(nodes) < len(order):
+                    line = self._line()
+                    if not line.startswith(" -2"):
+                        self.fail("3C", "node lines ' -2 ...'", repr(line[:40]))
+                    nodes += [self._int(t, "3C element nodes") for t in line[3:].split()]
+            self.elements.setdefault(cell_type, []).append([nodes[k] for k in order])
+        if fmt < 2:
+            self._line()  # -3
+
+    def _result(self, header: str) -> None:
+        try:
+            frequency = float(header[12:24])
+            count = int(header[24:36])
+        except ValueError:
+            self.fail("100C", "a result header with value and node count", repr(header[:40]))
+        fmt = self._int(header.split()[-1], "100C format")
+        if not 0 <= count <= MAX_COUNT:
+            self.fail("100C", f"a node count up to {MAX_COUNT}", str(count))
+        name = self._line().split()[1] if self.pos < len(self.data) else ""
+        ncomp = 0
+        while self.pos < len(self.data) and self.data[self.pos:self.pos + 3] == b" -5":
+            ncomp += "ALL" not in self._line()
+        if fmt >= 2:
+            rec = np.frombuffer(self._take(count * (4 + 4 * ncomp)), np.dtype([("id", "<i4"), ("v", "<f4", ncomp)]))
+            ids, values = rec["id"].astype(np.int64), rec["v"].astype(float)
+        else:
+            width = 10 if fmt == 1 else 5
+            ids, rows = [], []
+            while True:
+                line = self._line()
+                if line.startswith(" -3") or self.pos >= len(self.data):
+                    break
+                if line.startswith(" -1"):
+                    ids.append(self._int(line[3:3 + width], f"{name} node id"))
+                    rows.append(self._floats(line, 3 + width, ncomp, name))
+            ids, values = np.array(ids, np.int64), np.array(rows, float).reshape(-1, ncomp)
+        self.frequencies[self.mode] = frequency
+        self.results[(self.mode, name)] = (ids, values)
+
+
+def _nodal(frd: _Frd, index: dict, ids: np.ndarray, values: np.ndarray, field: str) -> np.ndarray:
+    out = np.zeros((len(index), values.shape[1]))
+    try:
+        out[[index[i] for i in ids]] = values
+    except KeyError as e:
+        frd.fail(field, "results at nodes of the mesh", f"unknown node {e}")
+    return out
+
+
+def _tensor(v: np.ndarray) -> np.ndarray:
+    """Symmetric tensors (n, 3, 3) from CalculiX components SXX SYY SZZ SXY SYZ SZX."""
+    xx, yy, zz, xy, yz, zx = v[:, :6].T
+    return np.stack([np.stack([xx, xy, zx], -1), np.stack([xy, yy, yz], -1), np.stack([zx, yz, zz], -1)], -2)
+
+
+def _dat_eigenvalues(path: Path) -> np.ndarray | None:
+    """The eigenvalue column of the .dat table 'E I G E N V A L U E   O U T P U T', or None."""
+    if not path.is_file():
+        return None
+    lines = path.read_text(errors="replace").splitlines()
+    try:
+        start = next(i for i, l in enumerate(lines) if "E I G E N V A L U E   O U T P U T" in l)
+    except StopIteration:
+        return None
+    values = []
+    for line in lines[start + 1:]:
+        parts = line.split()
+        if values and not parts:
+            break
+        if len(parts) >= 2 and parts[0].isdigit():
+            values.append(float(parts[1]))
+    return np.array(values)
+
+
+def _deck_density(frd: _Frd, path: Path) -> float:
+    if not path.is_file():
+        frd.fail("mass", f"{path.name} (*DENSITY) or {path.with_suffix('.mas').name} beside the .frd", "missing")
+    lines = path.read_text(errors="replace").splitlines()
+    for i, line in enumerate(lines):
+        if line.strip().upper().startswith("*DENSITY") and i + 1 < len(lines):
+            try:
+                return float(lines[i + 1].split(",")[0])
+            except ValueError:
+                break
+    frd.fail(f"{path.name}: *DENSITY", "a density line after *DENSITY")
+
+
+def _stored_mass(frd: _Frd, stem: Path, index: dict) -> sp.csr_array | None:
+    """The scalar mass Ms from job.mas/.dof (3n x 3n = kron(Ms, I3) for solids), or None."""
+    mas, dof = stem.with_suffix(".mas"), stem.with_suffix(".dof")
+    if not (mas.is_file() and dof.is_file()):
+        return None
+    try:
+        labels = [l.split(".") for l in dof.read_text().split()]
+        rows = np.array([3 * index[int(n)] + int(c) - 1 for n, c in labels])
+        i, j, v = np.loadtxt(mas, ndmin=2).T
+    except (ValueError, KeyError) as e:
+        frd.fail(mas.name, "'row col value' triplets over the DOFs of job.dof", str(e)[:60])
+    n3 = 3 * len(index)
+    i, j = rows[i.astype(int) - 1], rows[j.astype(int) - 1]
+    M = sp.coo_array((np.r_[v, v[i != j]], (np.r_[i, j[i != j]], np.r_[j, i[i != j]])), shape=(n3, n3)).tocsr()
+    Ms = sp.csr_array(M[0::3, 0::3])
+    if abs(M - full_mass(Ms)).max() > 1e-10 * abs(Ms).max():
+        frd.fail(mas.name, "a mass matrix of the form kron(Ms, I3) (solid elements)")
+    return Ms
+
+
+def read(path, load_fe: bool = False) -> FlexibleBody:
+    """A modal body from CalculiX frequency results (t-mm-N-s assumed)."""
+    if not os.path.isfile(path):
+        raise BodyFileError(path, "file", "an existing file", "not found")
+    frd = _Frd(path)
+    if frd.nodes is None or not frd.elements:
+        frd.fail("frd", "a node block (2C) and an element block (3C)", "missing")
+    index = {int(n): k for k, n in enumerate(frd.ids)}
+    try:
+        cells = {t: np.array([[index[n] for n in e] for e in es], np.int64) for t, es in frd.elements.items()}
+    except KeyError as e:
+        frd.fail("3C", "element nodes defined in the node block", f"unknown node {e}")
+    mesh = Mesh(frd.nodes, cells)
+    modes = sorted(m for m, name in frd.results if name == "DISP")
+    if not modes:
+        frd.fail("DISP", "mode shapes (*NODE FILE or *NODE OUTPUT with U)", "none")
+    stem = Path(path).with_suffix("")
+    lam = _dat_eigenvalues(stem.with_suffix(".dat"))
+    source = "eigenvalues from .dat (7 digits)"
+    if lam is None or len(lam) < len(modes):
+        lam = (2 * np.pi * np.array([frd.frequencies[m] for m in modes])) ** 2
+        source = "eigenvalues from .frd frequencies (6 digits)"
+    lam = lam[np.array(modes) - 1]
+    Phi = np.stack([_nodal(frd, index, *frd.results[(m, "DISP")], "DISP")[:, :3] for m in modes], axis=-1)
+    stress = None
+    if all((m, "STRESS") in frd.results for m in modes):
+        stress = np.stack([von_mises(_tensor(_nodal(frd, index, *frd.results[(m, "STRESS")], "STRESS")))
+                           for m in modes], axis=-1)
+    rigid = np.abs(lam) < RIGID_TOL * np.abs(lam).max()
+    notes = [f"CalculiX {Path(path).name}: {len(modes)} modes, {int(rigid.sum())} rigid dropped; {source}"]
+    if rigid.sum() != N_RIGID:
+        notes.append(f"warning: {int(rigid.sum())} rigid modes instead of six: the body is "
+                     + ("constrained" if rigid.sum() < N_RIGID else "not connected (a mechanism)"))
+    flex = ~rigid
+    if not flex.any():
+        frd.fail("DISP", "at least one flexible mode", "only rigid modes")
+    Ms = _stored_mass(frd, stem, index)
+    if Ms is None:
+        Ms = mass_matrix(mesh, _deck_density(frd, stem.with_suffix(".inp")))
+        notes.append("mass: consistent, assembled from the mesh and *DENSITY of the deck")
+    else:
+        notes.append("mass: CalculiX matrix storage (.mas/.dof)")
+    M, S = full_mass(Ms), Phi[:, :, flex].reshape(-1, int(flex.sum()))
+    scale = np.sqrt(np.einsum("ip,ip->p", S, M @ S))
+    Phi_n = mass_normalised(S, M).reshape(mesh.n_nodes, 3, -1)
+    stress = None if stress is None else stress[:, flex] / scale
+    body = FlexibleBody(
+        name=Path(path).name.split(".")[0], integrals=shape_integrals(mesh.points, Ms, Phi_n),
+        eigenvalues=lam[flex], units=TMM, sigma_max=None if stress is None else stress.max(axis=0),
+        provenance=Provenance(source=str(path), mass_matrix="consistent", notes=tuple(notes)),
+        fe=ModalFE(mesh, Ms, Phi_n, None, stress),
+    )
+    return body.in_principal_frame()[0]
+
+
+# ---------------------------------------------------------------- decks
+def write_deck(mesh: Mesh, material: Material, n_modes: int, path, binary: bool = False,
+               matrix_storage: bool = False) -> None:
+    """A free-free *FREQUENCY deck of ``mesh`` (8/20-node hexahedra; VTK order is the deck order)."""
+    ccx_type = {"hexahedron": "C3D8", "hexahedron20": "C3D20"}
+    out = ["*HEADING", "ffrf_advisor free-free modal deck", "*NODE, NSET=NALL"]
+    out += [f"{i + 1}, " + ", ".join(repr(float(v)) for v in p) for i, p in enumerate(mesh.points)]
+    number = 1
+    for cell_type, conn in mesh.cells.items():
+        if cell_type not in ccx_type:
+            raise ValueError(f"no CalculiX element for {cell_type}")
+        out.append(f"*ELEMENT, TYPE={ccx_type[cell_type]}, ELSET=EALL")
+        for c in conn + 1:
+            ids = [str(number)] + [str(n) for n in c]
+            out += [", ".join(ids[i:i + 16]) + ("," if i + 16 < len(ids) else "") for i in range(0, len(ids), 16)]
+            number += 1
+    out += ["*MATERIAL, NAME=MAT", "*ELASTIC", f"{material.E!r}, {material.nu!r}", "*DENSITY",
+            f"{material.rho!r}", "*SOLID SECTION, ELSET=EALL, MATERIAL=MAT", "*STEP",
+            "*FREQUENCY" + (", SOLVER=MATRIXSTORAGE" if matrix_storage else ""), f"{n_modes + N_RIGID}"]
+    if not matrix_storage:
+        out += ["*NODE OUTPUT" if binary else "*NODE FILE", "U",
+                "*ELEMENT OUTPUT" if binary else "*EL FILE", "S"]
+    out.append("*END STEP")
+    Path(path).write_text("\n".join(out) + "\n")
+
+
+register(Format("calculix", (".frd",), read))

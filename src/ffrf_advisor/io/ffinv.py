@@ -1,0 +1,290 @@
+"""Adams-style invariants files ``.ffinv.json`` and ``.ffinv.h5`` (docs/format.md, adams_invariants.md section 5).
+
+Both carry the same keys: JSON as nested lists, HDF5 as datasets (arrays),
+root attributes (scalars and strings) and groups with attributes (the
+dictionaries units, frame, conventions, provenance).
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import replace
+
+import h5py
+import numpy as np
+
+from .. import __version__
+from ..adams import SIGNS, from_adams, to_adams, w3_from_I9
+from ..body import MASS_KINDS, FlexibleBody, Provenance
+from ..errors import BodyFileError, FFRFError
+from ..units import LENGTH, MASS, TIME, Units, UnitsError
+from . import Format, register
+from .atomic import atomic_path
+from .hdf5_guard import probe
+
+FORMAT_NAME = "ffrf_advisor.invariants"
+VERSION = 1
+DICTS = ("units", "frame", "conventions", "provenance")
+TOL = {"symmetry": 1e-8, "I6": 1e-3, "I9": 1e-8, "W3": 1e-6, "frequency": 1e-9}
+STRESS_ALIASES = {"MPa": "N/mm^2", "N/mm2": "N/mm^2", "Pa": "N/m^2", "N/m2": "N/m^2"}
+
+
+def _shapes(nf: int) -> dict[str, tuple]:
+    return {"I1": (), "I2": (3,), "I3": (3, nf), "I4": (3, nf), "I5": (nf, 3, nf), "I6": (nf, nf),
+            "I7": (3, 3), "I8": (nf, 3, 3), "I9": (nf, nf, 3, 3), "nodal_rotary_inertia_sum": (3, 3),
+            "eigenvalues": (nf,), "frequencies_hz": (nf,), "generalized_stiffness": (nf, nf),
+            "max_von_mises": (nf,), "max_von_mises_node": (nf,), "mode_ids": (nf,)}
+
+
+REQUIRED = ("format", "version", "units", "frame", "conventions", "n_modes", "I1", "I2", "I7", "I8")
+
+
+# ---------------------------------------------------------------- writing
+def document(body: FlexibleBody, I8_sign: str = "adams") -> dict:
+    """The invariants file content of ``body`` (its CoM principal frame, Adams conventions)."""
+    u = body.units
+    doc = {
+        "format": FORMAT_NAME, "version": VERSION,
+        "units": {"length": u.length, "mass": u.mass, "time": u.time, "force": u.force,
+                  "stress": u.stress, "angle": "rad"},
+        "frame": {"origin": "cm", "axes": "principal"},
+        "conventions": {"skew": "a~b=axb", "I8_sign": I8_sign, "I9_order": "I9[j][k]=sum m Phi~_j Phi~_k",
+                        "mode_normalisation": "mass"},
+        "n_modes": body.nf,
+        **to_adams(body.integrals, I8_sign),
+        "eigenvalues": body.eigenvalues,
+        "frequencies_hz": body.frequencies_hz,
+        "provenance": {"source": body.provenance.source, "tool": f"ffrf_advisor {__version__}",
+                       "fe_mass": body.provenance.mass_matrix, "notes": "\n".join(body.provenance.notes)},
+    }
+    if body.sigma_max is not None:
+        doc["max_von_mises"] = body.sigma_max
+    return doc
+
+
+def _jsonable(x):
+    if isinstance(x, dict):
+        return {k: _jsonable(v) for k, v in x.items()}
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    return x
+
+
+def write_json(body: FlexibleBody, path, overwrite: bool = False, I8_sign: str = "adams") -> None:
+    with atomic_path(path, overwrite) as tmp:
+        tmp.write_text(json.dumps(_jsonable(document(body, I8_sign)), indent=1) + "\n")
+
+
+def write_h5(body: FlexibleBody, path, overwrite: bool = False, I8_sign: str = "adams") -> None:
+    with atomic_path(path, overwrite) as tmp:
+        with h5py.File(tmp, "w", libver=("earliest", "v110")) as f:
+            for key, value in document(body, I8_sign).items():
+                if key in DICTS:
+                    g = f.create_group(key)
+                    for k, v in value.items():
+                        g.attrs[k] = v
+                elif isinstance(value, np.ndarray) and value.ndim:
+                    f.create_dataset(key, data=value, track_times=False)
+                else:
+                    f.attrs[key] = value
+
+
+# ---------------------------------------------------------------- reading
+def _load_json(path) -> dict:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            doc = json.load(fh, parse_constant=lambda c: math.nan)
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as e:
+        raise BodyFileError(path, "file", "a readable JSON invariants file", type(e).__name__ + f": {e}") from None
+    if not isinstance(doc, dict):
+        raise BodyFileError(path, "file", "a JSON object at the top level", type(doc).__name__)
+    return doc
+
+
+def _load_h5(path) -> dict:
+    def plain(v):
+        return v.decode() if isinstance(v, bytes) else (v.item() if isinstance(v, np.generic) else v)
+    probe(path)
+    try:
+        with h5py.File(path, "r") as f:
+            doc = {k: plain(v) for k, v in f.attrs.items()}
+            for key, obj in f.items():
+                if isinstance(obj, h5py.Group):
+                    doc[key] = {k: plain(v) for k, v in obj.attrs.items()}
+                elif obj.size > 10**8:
+                    raise BodyFileError(path, key, "an array of sensible size", f"{obj.size} entries")
+                else:
+                    doc[key] = obj[()]
+    except (OSError, KeyError, ValueError, TypeError) as e:
+        raise BodyFileError(path, "file", "a readable HDF5 invariants file", f"{type(e).__name__}: {e}") from None
+    return doc
+
+
+class _Doc:
+    """Validated access to one parsed file; every failure names the key."""
+
+    def __init__(self, path, doc: dict):
+        self.path, self.doc = path, doc
+
+    def fail(self, key: str, expected: str, got: str | None = None):
+        raise BodyFileError(self.path, key, expected, got)
+
+    def text(self, group: str, key: str, allowed=None) -> str:
+        d = self.doc.get(group)
+        if not isinstance(d, dict) or key not in d:
+            self.fail(f"{group}.{key}", "a string" + (f" out of {', '.join(allowed)}" if allowed else ""), "missing")
+        value = d[key]
+        if not isinstance(value, str) or (allowed and value not in allowed):
+            self.fail(f"{group}.{key}", f"one of {', '.join(allowed)}" if allowed else "a string", repr(value))
+        return value
+
+    def array(self, key: str, shape: tuple) -> np.ndarray:
+        try:
+            a = np.asarray(self.doc[key], dtype=float)
+        except (ValueError, TypeError):
+            self.fail(key, f"numbers of shape {shape}", "non-numeric or ragged data")
+        if a.shape != shape:
+            self.fail(key, f"shape {shape}", str(a.shape))
+        if not np.all(np.isfinite(a)):
+            self.fail(key, "finite numbers", "NaN or inf")
+        return a
+
+
+def _units(d: _Doc) -> Units:
+    mass = d.text("units", "mass", tuple(MASS))
+    length = d.text("units", "length", tuple(LENGTH))
+    time = d.text("units", "time", tuple(TIME))
+    units = Units(mass, length, time)
+    try:
+        stress_unit = units.stress
+    except UnitsError as e:
+        d.fail("units", "a consistent unit system with a named force unit", str(e))
+    stress = d.doc["units"].get("stress")
+    if stress is not None and STRESS_ALIASES.get(stress, stress) != stress_unit:
+        d.fail("units.stress", f"{stress_unit} (consistent with {mass}, {length}, {time})", repr(stress))
+    return units
+
+
+def _check_header(d: _Doc) -> int:
+    for key in REQUIRED:
+        if key not in d.doc:
+            d.fail(key, "a value (required key)", "missing")
+    if d.doc["format"] != FORMAT_NAME:
+        d.fail("format", repr(FORMAT_NAME), repr(d.doc["format"]))
+    if d.doc["version"] != VERSION:
+        d.fail("version", str(VERSION), repr(d.doc["version"]))
+    nf = d.doc["n_modes"]
+    if not isinstance(nf, (int, np.integer)) or isinstance(nf, bool) or not 0 < nf <= 10000:
+        d.fail("n_modes", "a positive integer (at most 10000)", repr(nf))
+    return int(nf)
+
+
+def _eigenvalues(d: _Doc, nf: int) -> np.ndarray:
+    lam = d.array("eigenvalues", (nf,)) if "eigenvalues" in d.doc else None
+    if lam is not None and np.any(lam <= 0):
+        d.fail("eigenvalues", "positive flexible eigenvalues (rigid modes removed)")
+    if "frequencies_hz" in d.doc:
+        from_f = (2 * np.pi * d.array("frequencies_hz", (nf,))) ** 2
+        if lam is None:
+            lam = from_f
+        elif np.abs(from_f - lam).max() > TOL["frequency"] * np.abs(lam).max():
+            d.fail("frequencies_hz", "(2 pi f)^2 equal to eigenvalues within 1e-9")
+    if lam is None:
+        d.fail("eigenvalues", "eigenvalues or frequencies_hz (required)", "missing")
+    if np.any(lam <= 0):
+        d.fail("frequencies_hz", "positive flexible frequencies (rigid modes removed)")
+    return lam
+
+
+def _invariants(d: _Doc, nf: int) -> dict[str, np.ndarray]:
+    shapes = _shapes(nf)
+    inv = {k: d.array(k, shapes[k]) for k in ("I1", "I2", "I3", "I4", "I5", "I6", "I7", "I8", "I9")
+           if k in d.doc}
+    if inv["I1"] <= 0:
+        d.fail("I1", "a positive mass", str(float(inv["I1"])))
+    scale = np.abs(inv["I7"]).max()
+    if np.abs(inv["I7"] - inv["I7"].T).max() > TOL["symmetry"] * scale:
+        d.fail("I7", "a symmetric 3x3 inertia tensor")
+    if "I6" in inv and np.abs(inv["I6"] - np.eye(nf)).max() > TOL["I6"]:
+        d.fail("I6", f"the identity within {TOL['I6']:g} (mass-normalised modes)",
+               f"max |I6 - I| = {np.abs(inv['I6'] - np.eye(nf)).max():.3g}")
+    if "I9" in inv:
+        I9 = inv["I9"]
+        if np.abs(I9 - np.swapaxes(np.swapaxes(I9, 0, 1), 2, 3)).max() > TOL["I9"] * max(np.abs(I9).max(), 1):
+            d.fail("I9", "I9[j][k] equal to I9[k][j] transposed (Adams order)")
+        modal_mass = -0.5 * np.einsum("ijkk->ij", I9)
+        if np.abs(modal_mass - inv.get("I6", np.eye(nf))).max() > TOL["I6"]:
+            d.fail("I9", "-1/2 trace I9[i][j] equal to I6 (else a wrong I9 order or sign)")
+        if "I5" in inv and np.abs(w3_from_I9(I9) - np.einsum("jai->aji", inv["I5"])).max() > \
+                TOL["W3"] * max(np.abs(inv["I5"]).max(), 1):
+            d.fail("I5", "W3 from I5 equal to W3 from I9 (else an I5 index swap)")
+    return inv
+
+
+def _frame_note(c: np.ndarray, R: np.ndarray, units: Units) -> str:
+    return (f"transformed from the file's frame: origin moved to the CoM at "
+            f"[{', '.join(f'{x:.6g}' for x in c)}] {units.length}, axes turned to the principal axes "
+            f"(rotation rows {'; '.join(' '.join(f'{x:.6f}' for x in row) for row in R.T)})")
+
+
+def body_from_document(path, doc: dict) -> FlexibleBody:
+    d = _Doc(path, doc)
+    nf = _check_header(d)
+    units = _units(d)
+    origin = d.text("frame", "origin", ("cm", "lbrf"))
+    axes = d.text("frame", "axes", ("principal", "lbrf"))
+    sign = d.text("conventions", "I8_sign", SIGNS)
+    d.text("conventions", "mode_normalisation", ("mass",))
+    inv = _invariants(d, nf)
+    fe_mass = "unknown"
+    notes: list[str] = []
+    if isinstance(doc.get("provenance"), dict):
+        fe_mass = doc["provenance"].get("fe_mass", "unknown")
+        if fe_mass not in MASS_KINDS:
+            d.fail("provenance.fe_mass", f"one of {', '.join(MASS_KINDS)}", repr(fe_mass))
+        notes = [n for n in str(doc["provenance"].get("notes", "")).split("\n") if n]
+    missing = [k for k in ("I9", "I5") if k not in inv]
+    if "I9" not in inv:
+        notes.append("no I9 in the file: W2 (quadratic inertia change, centrifugal softening) not evaluable"
+                     + ("" if "I5" in inv else "; no I5 either: W3 (coupling, Coriolis ratio) not evaluable"))
+    sigma = d.array("max_von_mises", (nf,)) if "max_von_mises" in doc else None
+    if sigma is not None and np.any(sigma < 0):
+        d.fail("max_von_mises", "non-negative stresses")
+    body = FlexibleBody(
+        name=os.path.basename(str(path)).split(".")[0], integrals=from_adams(inv, nf, sign),
+        eigenvalues=_eigenvalues(d, nf), units=units, sigma_max=sigma,
+        provenance=Provenance(source=str(doc.get("provenance", {}).get("source", "") or path)
+                              if isinstance(doc.get("provenance"), dict) else str(path),
+                              mass_matrix=fe_mass, method="Adams-style invariants I1..I9 "
+                              f"({', '.join(k for k in ('I5', 'I9') if k not in missing) or 'without I5, I9'})",
+                              notes=tuple(notes)),
+    )
+    if (origin, axes) != ("cm", "principal"):
+        body, c, R = body.in_principal_frame()
+        body = replace(body, provenance=replace(body.provenance,
+                                                notes=body.provenance.notes + (_frame_note(c, R, units),)))
+    return body
+
+
+def read_json(path, load_fe: bool = False) -> FlexibleBody:
+    return _read(path, _load_json)
+
+
+def read_h5(path, load_fe: bool = False) -> FlexibleBody:
+    return _read(path, _load_h5)
+
+
+def _read(path, load) -> FlexibleBody:
+    if not os.path.isfile(path):
+        raise BodyFileError(path, "file", "an existing file", "not found")
+    try:
+        return body_from_document(path, load(path))
+    except FFRFError:
+        raise
+    except (ValueError, TypeError, KeyError, AttributeError, OverflowError, np.linalg.LinAlgError) as e:
+        raise BodyFileError(path, "file", "a consistent invariants file", f"{type(e).__name__}: {e}") from None
+
+
+register(Format("ffinv-json", (".ffinv.json",), read_json, write_json))
+register(Format("ffinv-h5", (".ffinv.h5",), read_h5, write_h5))

@@ -1,0 +1,135 @@
+"""Meshes readable by meshio (VTU, VTK, XDMF, MED, Gmsh) that carry mode shapes as point data.
+
+Point data ``mode_1`` .. ``mode_n`` (n x 3 each), optional ``von_mises_1`` ..
+``von_mises_n``; field data ``eigenvalues`` (or the --eigenvalues option) and
+``density`` (or --density). The consistent mass matrix is assembled from the
+solid cells the FE module supports (hexahedron, hexahedron20,
+hexahedron27); lower-dimensional cells (boundary faces, lines, points) are
+ignored; any other solid cell is an error naming its type.
+"""
+from __future__ import annotations
+
+import os
+import re
+
+import numpy as np
+
+from ..body import FlexibleBody, ModalFE, Provenance
+from ..errors import BodyFileError
+from ..fe.assembly import full_mass, mass_matrix
+from ..fe.elements import ELEMENT_TYPES
+from ..fe.mesh import Mesh
+from ..fe.modal import mass_normalised
+from ..invariants import shape_integrals
+from ..units import TMM
+from . import Format, register
+
+SUFFIXES = (".vtu", ".vtk", ".xdmf", ".xmf", ".med", ".msh")
+LOWER_DIMENSIONAL = re.compile(r"^(vertex|line\d*|triangle\d*|quad\d*|polygon)$")
+_MODE = re.compile(r"^mode_(\d+)$")
+
+
+def _numbers(path, field: str, value, n: int | None = None) -> np.ndarray:
+    try:
+        a = np.asarray(value, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise BodyFileError(path, field, "numbers", repr(value)[:60]) from None
+    if (n is not None and len(a) != n) or not np.all(np.isfinite(a)):
+        raise BodyFileError(path, field, f"{n if n is not None else 'some'} finite numbers",
+                            f"{len(a)} values" + ("" if np.all(np.isfinite(a)) else " with NaN/inf"))
+    return a
+
+
+def _solid_mesh(path, m) -> Mesh:
+    cells = {}
+    for block in m.cells:
+        if block.type in ELEMENT_TYPES:
+            cells[block.type] = np.concatenate([cells[block.type], block.data]) if block.type in cells \
+                else np.asarray(block.data, dtype=np.int64)
+        elif not LOWER_DIMENSIONAL.match(block.type):
+            raise BodyFileError(path, f"cells/{block.type}",
+                                f"solid cells of a supported type ({', '.join(ELEMENT_TYPES)})", block.type)
+    if not cells:
+        raise BodyFileError(path, "cells", f"solid cells ({', '.join(ELEMENT_TYPES)})", "none")
+    points = np.asarray(m.points, dtype=float)
+    if points.ndim != 2 or points.shape[1] != 3 or not np.all(np.isfinite(points)):
+        raise BodyFileError(path, "points", "finite 3D coordinates", str(points.shape))
+    for cell_type, conn in cells.items():
+        if conn.size and (conn.min() < 0 or conn.max() >= len(points)):
+            raise BodyFileError(path, f"cells/{cell_type}", f"node indices in [0, {len(points)})")
+    return Mesh(points, cells)
+
+
+def _modes(path, m, n_nodes: int) -> tuple[list[int], np.ndarray]:
+    numbers = sorted(int(g.group(1)) for key in m.point_data if (g := _MODE.match(key)))
+    if not numbers:
+        raise BodyFileError(path, "point_data/mode_1", "mode shapes as point data mode_1 .. mode_n", "none")
+    if numbers != list(range(1, len(numbers) + 1)):
+        raise BodyFileError(path, "point_data/mode_*", "consecutive mode_1 .. mode_n", str(numbers[:8]))
+    Phi = np.stack([np.asarray(m.point_data[f"mode_{p}"], dtype=float) for p in numbers], axis=-1)
+    if Phi.shape != (n_nodes, 3, len(numbers)) or not np.all(np.isfinite(Phi)):
+        raise BodyFileError(path, "point_data/mode_*", f"finite ({n_nodes}, 3) vectors per mode", str(Phi.shape))
+    return numbers, Phi
+
+
+def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = None) -> FlexibleBody:
+    """A modal body from a meshio mesh with mode fields (t-mm-N-s)."""
+    import meshio
+
+    if not os.path.isfile(path):
+        raise BodyFileError(path, "file", "an existing file", "not found")
+    try:
+        m = meshio.read(path)
+    except Exception as e:  # meshio raises many kinds on bad input
+        raise BodyFileError(path, "file", "a mesh meshio can read", f"{type(e).__name__}: {e}"[:200]) from None
+    mesh = _solid_mesh(path, m)
+    numbers, Phi = _modes(path, m, mesh.n_nodes)
+    nf = len(numbers)
+    lam = _numbers(path, "eigenvalues", _given(path, m, "eigenvalues", eigenvalues), nf)
+    rho = _numbers(path, "density", _given(path, m, "density", density), 1)[0]
+    if rho <= 0 or np.any(lam <= 0):
+        raise BodyFileError(path, "density" if rho <= 0 else "eigenvalues", "positive values (flexible modes only)")
+    Ms = mass_matrix(mesh, rho)
+    M, S = full_mass(Ms), Phi.reshape(-1, nf)
+    scale = np.sqrt(np.einsum("ip,ip->p", S, M @ S))  # the file's modal masses, square-rooted
+    Phi_n = mass_normalised(S, M).reshape(Phi.shape)
+    stress = _stress(path, m, mesh.n_nodes, numbers)
+    stress = None if stress is None else stress / scale
+    body = FlexibleBody(
+        name=os.path.basename(str(path)).split(".")[0],
+        integrals=shape_integrals(mesh.points, Ms, Phi_n), eigenvalues=lam, units=TMM,
+        sigma_max=None if stress is None else stress.max(axis=0),
+        provenance=Provenance(source=str(path), mass_matrix="consistent",
+                              method="consistent mass assembled from the mesh; nodal sums (theory section 3)",
+                              notes=(f"density {rho:g}; modes mass-normalised (file scale factors "
+                                     f"{', '.join(f'{1 / s:.4g}' for s in scale[:4])}{' ...' if nf > 4 else ''})",
+                                     f"{mesh.n_cells} x {', '.join(mesh.cells)}, {mesh.n_nodes} nodes")),
+        fe=ModalFE(mesh, Ms, Phi_n, None, stress),
+    )
+    return body.in_principal_frame()[0]
+
+
+def _given(path, m, field: str, option):
+    """The option's value, else the field data, else a one-line error."""
+    if option is not None:
+        return option
+    if field not in m.field_data:
+        raise BodyFileError(path, f"field_data/{field}", f"{field} as field data or the --{field} option", "missing")
+    return m.field_data[field]
+
+
+def _stress(path, m, n_nodes: int, numbers: list[int]) -> np.ndarray | None:
+    keys = [f"von_mises_{p}" for p in numbers]
+    present = [k in m.point_data for k in keys]
+    if not any(present):
+        return None
+    if not all(present):
+        raise BodyFileError(path, "point_data/von_mises_*", "von Mises for every mode or none",
+                            f"missing {keys[present.index(False)]}")
+    S = np.stack([np.asarray(m.point_data[k], dtype=float).reshape(-1) for k in keys], axis=-1)
+    if S.shape != (n_nodes, len(numbers)) or not np.all(np.isfinite(S)) or np.any(S < 0):
+        raise BodyFileError(path, "point_data/von_mises_*", "finite non-negative nodal values", str(S.shape))
+    return S
+
+
+register(Format("meshio", SUFFIXES, read))

@@ -1,0 +1,81 @@
+"""Pictures of a body's mesh and its mode shapes (matplotlib, no screen needed)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
+
+from ..body import FlexibleBody  # noqa: E402
+from ..errors import FFRFError  # noqa: E402
+from ..fe.elements import element_type  # noqa: E402
+from ..fe.mesh import Mesh  # noqa: E402
+from ..io.atomic import atomic_path  # noqa: E402
+
+# Faces of a VTK hexahedron by corner index, outward normals.
+_HEX_FACES = ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))
+_HEX_EDGES = ((0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7))
+DEFLECTION_SHOWN = 0.06  # largest drawn deflection / largest body dimension
+
+
+def boundary_polygons(mesh: Mesh) -> np.ndarray:
+    """Node indices (nfaces, 4 or 8) of the outer faces; quadratic faces list corner, mid-side, corner, ..."""
+    polys = []
+    for cell_type, conn in mesh.cells.items():
+        quadratic = element_type(cell_type).n_nodes > 8
+        for face in _HEX_FACES:
+            ring = []
+            for a, b in zip(face, face[1:] + face[:1]):
+                ring.append(conn[:, a])
+                if quadratic:
+                    edge = _HEX_EDGES.index((a, b)) if (a, b) in _HEX_EDGES else _HEX_EDGES.index((b, a))
+                    ring.append(conn[:, 8 + edge])
+            polys.append(np.stack(ring, axis=1))
+    polys = np.concatenate(polys)
+    keys = np.sort(polys[:, ::2] if polys.shape[1] == 8 else polys, axis=1)
+    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
+    return polys[counts[inverse.ravel()] == 1]
+
+
+def _draw(ax, points: np.ndarray, polys: np.ndarray, colour: np.ndarray | None, title: str) -> None:
+    faces = points[polys]
+    coll = Poly3DCollection(faces, linewidths=0.15, edgecolors=(0, 0, 0, 0.35))
+    if colour is None:
+        coll.set_facecolor((0.75, 0.78, 0.85, 1.0))
+    else:
+        coll.set_facecolor(plt.cm.viridis(colour[polys].mean(axis=1) / max(colour.max(), 1e-300)))
+    ax.add_collection3d(coll)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    span = np.maximum(hi - lo, 1e-3 * (hi - lo).max())
+    centre = (lo + hi) / 2
+    for setter, c, s in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre, span):
+        setter(c - s / 2, c + s / 2)
+    ax.set_box_aspect(span)
+    ax.set_axis_off()
+    ax.set_title(title, fontsize=8)
+
+
+def body_picture(body: FlexibleBody, path: Path, modes: int = 3, overwrite: bool = True) -> None:
+    """PNG: the undeformed mesh and the first ``modes`` mode shapes, coloured by deflection."""
+    if body.fe is None:
+        raise FFRFError(f"{body.name}: no mesh to draw (invariants-only body)")
+    mesh, Phi = body.fe.mesh, body.fe.Phi
+    polys = boundary_polygons(mesh)
+    n = min(modes, body.nf)
+    fig = plt.figure(figsize=(3.2 * (n + 1), 3.0))
+    _draw(fig.add_subplot(1, n + 1, 1, projection="3d"), mesh.points, polys, None,
+          f"{body.name}: {mesh.n_cells} elements")
+    for p in range(n):
+        u = Phi[:, :, p]
+        size = np.linalg.norm(u, axis=1)
+        scale = DEFLECTION_SHOWN * mesh.largest_dimension() / size.max()
+        _draw(fig.add_subplot(1, n + 1, p + 2, projection="3d"), mesh.points + scale * u, polys, size,
+              f"mode {p + 1}: {body.frequencies_hz[p]:.4g} Hz")
+    fig.tight_layout()
+    with atomic_path(path, overwrite) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)

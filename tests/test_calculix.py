@@ -1,0 +1,101 @@
+"""CalculiX results against the built-in FE generator on the same mesh (needs `ccx`; .ci/run installs it)."""
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ffrf_advisor.errors import BodyFileError
+from ffrf_advisor.fe.assembly import mass_matrix
+from ffrf_advisor.fe.build import modal_body
+from ffrf_advisor.fe.material import STEEL
+from ffrf_advisor.fe.mesh import box_mesh
+from ffrf_advisor.invariants import shape_integrals
+from ffrf_advisor.io import read_body
+from ffrf_advisor.io.calculix import write_deck
+
+pytestmark = pytest.mark.skipif(shutil.which("ccx") is None, reason="CalculiX (ccx) is not installed")
+NF = 6
+MESH = box_mesh([200.0, 40.0, 20.0], [5, 2, 1], "hexahedron20")
+
+
+def _run(directory: Path, job: str, **deck) -> Path:
+    write_deck(MESH, STEEL, NF, directory / f"{job}.inp", **deck)
+    done = subprocess.run(["ccx", job], cwd=directory, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0 and "Job finished" in done.stdout, done.stdout[-2000:]
+    return directory / f"{job}.frd"
+
+
+@pytest.fixture(scope="module")
+def reference():
+    return modal_body(MESH, STEEL, NF)
+
+
+@pytest.fixture(scope="module")
+def jobs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("ccx")
+    ascii_frd = _run(d, "ascii")
+    binary_frd = _run(d, "binary", binary=True)
+    shutil.copy(binary_frd, d / "stored.frd")
+    shutil.copy(d / "binary.dat", d / "stored.dat")
+    _run(d, "stored_matrices", matrix_storage=True)
+    for suffix in (".mas", ".dof"):
+        os.replace(d / f"stored_matrices{suffix}", d / f"stored{suffix}")
+    return {"ascii": ascii_frd, "binary": binary_frd, "stored": d / "stored.frd"}
+
+
+def _signs_aligned(body, reference):
+    """Mode signs are arbitrary: flip the read modes to match the reference, recompute the integrals."""
+    s = np.sign(np.einsum("iap,iap->p", body.fe.Phi, reference.fe.Phi))
+    Phi = body.fe.Phi * s
+    return replace(body, integrals=shape_integrals(body.fe.mesh.points, body.fe.Ms, Phi))
+
+
+@pytest.mark.parametrize("job", ["ascii", "binary", "stored"])
+def test_calculix_agrees_with_the_built_in_generator(jobs, reference, job):
+    body = read_body(jobs[job])
+    assert body.nf == NF
+    assert np.array_equal(body.fe.mesh.cells["hexahedron20"], MESH.cells["hexahedron20"])  # frd order mapped back
+    assert np.abs(body.fe.mesh.points - reference.fe.mesh.points).max() < 1e-9
+    assert np.abs(body.eigenvalues / reference.eigenvalues - 1).max() < 1e-5  # .dat: 7 digits
+    aligned = _signs_aligned(body, reference)
+    for name, tol in (("I0", 1e-12), ("W1", 1e-4), ("W2", 1e-5), ("W3", 1e-5)):  # .frd modes: 6 digits
+        ref = getattr(reference, name)
+        assert np.abs(getattr(aligned, name) - ref).max() <= tol * np.abs(ref).max(), name
+    assert np.abs(body.sigma_max / reference.sigma_max - 1).max() < 1e-3
+    assert any("6 rigid dropped" in n for n in body.provenance.notes)
+
+
+def test_stored_mass_matrix_equals_the_assembled_one(jobs):
+    stored = read_body(jobs["stored"])
+    assert any("matrix storage" in n for n in stored.provenance.notes)
+    Ms = mass_matrix(MESH, STEEL.rho)
+    assert abs(stored.fe.Ms - Ms).max() < 1e-9 * abs(Ms).max()
+
+
+def test_eigenvalues_fall_back_to_the_frd_frequencies(jobs, reference, tmp_path):
+    shutil.copy(jobs["ascii"], tmp_path / "alone.frd")
+    shutil.copy(jobs["ascii"].with_suffix(".inp"), tmp_path / "alone.inp")
+    body = read_body(tmp_path / "alone.frd")
+    assert any("from .frd" in n for n in body.provenance.notes)
+    assert np.abs(body.eigenvalues / reference.eigenvalues - 1).max() < 2e-5  # 6 digits of f, squared
+
+
+def test_a_constrained_body_is_reported(tmp_path):
+    frd = _run(tmp_path, "held")
+    deck = (tmp_path / "held.inp").read_text().replace("*STEP", "*BOUNDARY\n1, 1, 3\n*STEP")
+    (tmp_path / "held.inp").write_text(deck)
+    subprocess.run(["ccx", "held"], cwd=tmp_path, capture_output=True, timeout=300)
+    body = read_body(frd)
+    assert any("instead of six" in n and "constrained" in n for n in body.provenance.notes)
+
+
+def test_without_deck_or_matrices_the_mass_is_missing(jobs, tmp_path):
+    shutil.copy(jobs["ascii"], tmp_path / "bare.frd")
+    with pytest.raises(BodyFileError, match="DENSITY"):
+        read_body(tmp_path / "bare.frd")

@@ -1,0 +1,81 @@
+"""Damaged inputs end in the project's one-line error: never a traceback, a hang or a huge allocation."""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import meshio
+import pytest
+from typer.testing import CliRunner
+
+from ffrf_advisor.cli import app
+from ffrf_advisor.fe.build import modal_body
+from ffrf_advisor.fe.material import STEEL
+from ffrf_advisor.fe.mesh import box_mesh
+from ffrf_advisor.io import write_body
+from ffrf_advisor.io.calculix import write_deck
+
+from .fuzz_readers import mutate
+
+CASES = 2000  # per reader
+HARNESS = Path(__file__).resolve().parent / "fuzz_readers.py"
+MESH = box_mesh([60.0, 20.0, 10.0], [3, 1, 1], "hexahedron20")
+NF = 4
+
+
+@pytest.fixture(scope="module")
+def seeds(tmp_path_factory):
+    """One small valid file per reader, with the reader options it needs."""
+    d = tmp_path_factory.mktemp("seeds")
+    body = modal_body(MESH, STEEL, NF, name="seed")
+    out = {}
+    for name in ("seed.ffrf.h5", "seed.ffinv.json", "seed.ffinv.h5"):
+        write_body(body, d / name)
+        out[name] = {}
+    fe = body.fe
+    point_data = {f"mode_{p + 1}": fe.Phi[:, :, p] for p in range(NF)}
+    meshio.write(d / "seed.vtu", meshio.Mesh(fe.mesh.points, list(fe.mesh.cells.items()), point_data=point_data))
+    out["seed.vtu"] = {"eigenvalues": body.eigenvalues.tolist(), "density": STEEL.rho}
+    if shutil.which("ccx"):
+        for job, binary in (("ascii", False), ("binary", True)):
+            (d / job).mkdir()
+            write_deck(MESH, STEEL, NF, d / job / "seed.inp", binary=binary)
+            subprocess.run(["ccx", "seed"], cwd=d / job, capture_output=True, timeout=300, check=True)
+            out[f"{job}/seed.frd"] = {}
+    return d, out
+
+
+READERS = ["seed.ffrf.h5", "seed.ffinv.json", "seed.ffinv.h5", "seed.vtu", "ascii/seed.frd", "binary/seed.frd"]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", READERS)
+def test_reader_survives_thousands_of_damaged_files(seeds, name):
+    d, options = seeds
+    if name not in options:
+        pytest.skip("CalculiX (ccx) is not installed")
+    done = subprocess.run([sys.executable, str(HARNESS), str(d / name), str(CASES), "20261121",
+                           json.dumps(options[name])], capture_output=True, text=True, timeout=1800)
+    assert done.returncode == 0, done.stderr[-2000:]
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    assert report["counts"]["other"] == 0, report["offending"]
+    assert sum(report["counts"].values()) == CASES and report["counts"]["ffrf_error"] > CASES // 4
+
+
+def test_damaged_files_through_the_cli_give_one_line_and_exit_2(seeds, tmp_path):
+    import numpy as np
+    d, _ = seeds
+    rng = np.random.default_rng(7)
+    runner = CliRunner()
+    for name in ("seed.ffrf.h5", "seed.ffinv.json", "seed.ffinv.h5"):
+        data = (d / name).read_bytes()
+        for _ in range(15):
+            path = tmp_path / name
+            path.write_bytes(mutate(data, rng))
+            result = runner.invoke(app, ["info", str(path)])
+            assert result.exit_code in (0, 2), result.output
+            if result.exit_code == 2:
+                assert len(result.output.strip().splitlines()) == 1 and "Traceback" not in result.output

@@ -1,0 +1,105 @@
+"""meshio meshes with mode fields, `convert` between every format, and `settings --solver adams`."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from ffrf_advisor.cli import app
+from ffrf_advisor.errors import BodyFileError
+from ffrf_advisor.fe.material import STEEL
+from ffrf_advisor.io import read_body
+
+SAMPLES = Path(__file__).resolve().parent.parent / "sample_bodies"
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def beam():
+    return read_body(SAMPLES / "beam.ffrf.h5", load_fe=True)
+
+
+def _mesh_file(path: Path, body, extra_cells=(), stress=True, scale=None) -> Path:
+    """The body's mesh and modes as a meshio file: modes scaled by ``scale`` (not mass-normalised), moved."""
+    fe, nf = body.fe, body.nf
+    scale = np.arange(3.0, 3.0 + nf) if scale is None else scale
+    point_data = {f"mode_{p + 1}": fe.Phi[:, :, p] * scale[p] for p in range(nf)}
+    if stress:
+        point_data.update({f"von_mises_{p + 1}": fe.stress_nodal[:, p] * scale[p] for p in range(nf)})
+    cells = [(t, c) for t, c in fe.mesh.cells.items()] + list(extra_cells)
+    meshio.write(path, meshio.Mesh(fe.mesh.points + [10.0, 20.0, 30.0], cells, point_data=point_data))
+    return path
+
+
+@pytest.mark.parametrize("suffix", [".vtu", ".xdmf", ".vtk"])
+def test_meshio_mesh_with_modes_gives_the_same_body(tmp_path, beam, suffix):
+    quads = [] if suffix == ".xdmf" else [("quad", np.array([[0, 1, 2, 3]]))]  # faces are ignored
+    path = _mesh_file(tmp_path / f"beam{suffix}", beam, extra_cells=quads)
+    body = read_body(path, eigenvalues=beam.eigenvalues, density=STEEL.rho)
+    for name in ("I0", "W1", "W2", "W3"):
+        ref = getattr(beam, name)
+        assert np.abs(getattr(body, name) - ref).max() <= 1e-12 * np.abs(ref).max(), name
+    assert np.abs(body.sigma_max / beam.sigma_max - 1).max() < 1e-12  # stress rescaled with the modes
+
+
+def test_meshio_errors_name_the_field(tmp_path, beam):
+    path = _mesh_file(tmp_path / "beam.vtu", beam)
+    with pytest.raises(BodyFileError, match="field_data/eigenvalues"):
+        read_body(path, density=STEEL.rho)
+    with pytest.raises(BodyFileError, match="eigenvalues: expected 16 finite"):
+        read_body(path, eigenvalues=[1.0, 2.0], density=STEEL.rho)
+    tet = meshio.Mesh(np.eye(4, 3), [("tetra", np.array([[0, 1, 2, 3]]))], point_data={"mode_1": np.ones((4, 3))})
+    meshio.write(tmp_path / "tet.vtu", tet)
+    with pytest.raises(BodyFileError, match="cells/tetra"):
+        read_body(tmp_path / "tet.vtu", eigenvalues=[1.0], density=1.0)
+
+
+def test_info_and_convert_take_eigenvalues_and_density_for_meshes(tmp_path, beam):
+    path = _mesh_file(tmp_path / "beam.vtu", beam)
+    lam = tmp_path / "eigenvalues.txt"
+    lam.write_text("\n".join(repr(float(x)) for x in beam.eigenvalues))
+    opts = ["--eigenvalues", str(lam), "--density", repr(STEEL.rho)]
+    assert runner.invoke(app, ["info", str(path), *opts]).exit_code == 0
+    out = tmp_path / "beam.ffrf.h5"
+    result = runner.invoke(app, ["convert", str(path), str(out), *opts])
+    assert result.exit_code == 0, result.output
+    assert np.abs(read_body(out).W2 - beam.W2).max() < 1e-12
+    wrong = runner.invoke(app, ["info", str(SAMPLES / "beam.ffrf.h5"), "--density", "1"])
+    assert wrong.exit_code == 2 and "meshio meshes only" in wrong.output
+
+
+def test_convert_round_trip_and_refusal(tmp_path, beam):
+    inv = tmp_path / "beam.ffinv.json"
+    assert runner.invoke(app, ["convert", str(SAMPLES / "beam.ffrf.h5"), str(inv)]).exit_code == 0
+    back = tmp_path / "back.ffrf.h5"
+    assert runner.invoke(app, ["convert", str(inv), str(back)]).exit_code == 0
+    body = read_body(back)
+    assert body.fe is None and np.abs(body.W3 - beam.W3).max() <= 1e-12 * np.abs(beam.W3).max()
+    before = inv.read_bytes()
+    again = runner.invoke(app, ["convert", str(back), str(inv)])
+    assert again.exit_code == 2 and "refusing to overwrite" in again.output and inv.read_bytes() == before
+    assert runner.invoke(app, ["convert", str(back), str(inv), "--force"]).exit_code == 0
+    odd = tmp_path / "beam.data"
+    assert runner.invoke(app, ["convert", str(back), str(odd), "--to", "ffinv-h5"]).exit_code == 0
+    assert np.abs(read_body(odd, "ffinv-h5").W1 - beam.W1).max() <= 1e-12 * np.abs(beam.W1).max()
+    frd = runner.invoke(app, ["convert", str(back), str(tmp_path / "x.frd")])
+    assert frd.exit_code == 2 and "read but not written" in frd.output
+
+
+@pytest.mark.parametrize("body, speed, formulation, pattern", [
+    ("plate", "1", "constant coupling", "T:T:T:T:F:T:T:F:F"),
+    ("genstruct1", "1", "partial coupling", "T:T:T:T:F:T:T:T:F"),
+    ("beam", "300", "full coupling", "T:T:T:T:T:T:T:T:T"),
+])
+def test_settings_for_adams(body, speed, formulation, pattern):
+    path = str(SAMPLES / f"{body}.ffrf.h5")
+    data = json.loads(runner.invoke(app, ["settings", path, "--solver", "adams", "--speed", speed, "--json"]).output)
+    assert data["formulation"] == formulation and data["invariants"] == pattern
+    text = runner.invoke(app, ["settings", path, "--speed", speed], env={"COLUMNS": "200"}).output
+    assert f"INVARIANTS={pattern}" in text and data["source"].split(";")[0] in text and "guess" in text
+    bad = runner.invoke(app, ["settings", path, "--solver", "simpack"])
+    assert bad.exit_code == 2

@@ -1,0 +1,157 @@
+"""The six shipped sample bodies: what their recipes make, and what the advisor says of them (issue 4)."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from ffrf_advisor.analysis import Options, analyze
+from ffrf_advisor.cli import app
+from ffrf_advisor.fe.assembly import mass_matrix
+from ffrf_advisor.fe.mesh import box_mesh
+from ffrf_advisor.guidelines import Situation
+from ffrf_advisor.io import read_body
+from ffrf_advisor.report.figures import body_picture, boundary_polygons
+from ffrf_advisor.samples import SAMPLES, conrod_mesh, sample
+
+DIR = Path(__file__).resolve().parent.parent / "sample_bodies"
+MODERATE = 1.0  # rad/s: a vehicle-like rotation rate (docs/samples.md)
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def shipped():
+    return {name: read_body(DIR / f"{name}.ffrf.h5", load_fe=True) for name in SAMPLES}
+
+
+def _advice(body, connection="free"):
+    return analyze(body, Options(situation=Situation(w_op=MODERATE, connection=connection)))
+
+
+def test_all_six_are_shipped_small_and_complete(shipped):
+    assert sum((DIR / f"{n}.ffrf.h5").stat().st_size for n in SAMPLES) < 30e6
+    for name, body in shipped.items():
+        assert body.nf == 16 and str(body.units) == "t-mm-N-s", name
+        assert body.sigma_max is not None and body.fe.stress_nodal.shape == (body.fe.mesh.n_nodes, 16), name
+        assert body.provenance.mass_matrix == "consistent", name
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", SAMPLES)
+def test_regenerating_reproduces_the_shipped_invariants(name, shipped):
+    made, ref = sample(name), shipped[name]
+    assert np.abs(made.eigenvalues / ref.eigenvalues - 1).max() < 1e-10
+    for field in ("I", "Ibar", "Sbar", "mode_sum"):
+        a, b = getattr(made.integrals, field), getattr(ref.integrals, field)
+        assert np.abs(a - b).max() <= 1e-10 * np.abs(b).max(), field
+
+
+def test_levels_at_moderate_speed_free_and_stiff(shipped):
+    expected = {"beam": "III", "genstruct1": "III", "plate": "I", "conrod": "I", "genstruct2": "I", "carbody": "I"}
+    for name, body in shipped.items():
+        assert _advice(body).advice.level == expected[name], name
+        assert _advice(body, "stiff").advice.level == "I", name
+
+
+@pytest.mark.parametrize("name, measure, axis, term", [("beam", "dI_Q", 3, "inertia_quad"),
+                                                       ("genstruct1", "dI_L", 1, "inertia_lin")])
+def test_critical_bodies_are_critical_for_the_papers_reason(shipped, name, measure, axis, term):
+    a = _advice(shipped[name])
+    sig = a.significance
+    stacked = {m: getattr(sig, m).max(axis=1) for m in ("dI_L", "dI_Q", "dI_fT")}
+    top = max(((m, k) for m in stacked for k in range(3)), key=lambda mk: stacked[mk[0]][mk[1]])
+    assert top == (measure, axis - 1)
+    assert term in a.advice.terms
+
+
+def test_genstruct1_changes_its_inertia_by_about_ten_percent_and_genstruct2_does_not(shipped):
+    soft = _advice(shipped["genstruct1"]).significance.dI_L[0].max()
+    stiff = _advice(shipped["genstruct2"]).significance.dI_L[0].max()
+    assert 0.07 < soft < 0.15
+    assert stiff < 0.05 and stiff < soft / 3
+
+
+def test_tendencies_of_the_paper(shipped):
+    analyses = {n: _advice(b) for n, b in shipped.items()}
+    q1 = {n: a.amplitudes.q_max[0] for n, a in analyses.items()}
+    assert min(q1, key=q1.get) == "conrod"
+    for name, a in analyses.items():
+        norms = {k: m.frobenius for k, m in a.significance.magnitudes.items()}
+        if name == "plate":  # theory 7: W1 vanishes by symmetry for a flat plate with out-of-plane modes
+            assert norms["W1"] < 1e-5 * np.sqrt(a.body.mass) * a.body.largest_dimension()
+            assert max(norms["W2"], norms["W3"]) < norms["I0"]
+        else:
+            assert max(norms["W2"], norms["W3"]) < min(norms["W1"], norms["I0"]), name
+        stressed = a.body.sigma_max[0] > 500.0
+        assert stressed == (a.amplitudes.governs[0] == "stress"), name
+        assert stressed == (a.amplitudes.q_max[0] < 1.0), name
+
+
+def test_plate_deflects_far_beyond_its_thickness_at_unit_modal_coordinate(shipped):
+    plate = shipped["plate"]
+    corner_deflection = np.linalg.norm(plate.fe.Phi[:, :, 0], axis=1).max()
+    assert 30.0 < corner_deflection < 60.0  # the paper's plate: 42 mm
+    assert plate.sigma_max[0] < 100.0
+
+
+def test_conrod_eyes_are_round_and_its_volume_is_the_drawing():
+    mesh = conrod_mesh()
+    volume = mass_matrix(mesh, 1.0).sum()
+    drawing = (84**2 - math.pi * 28**2) * 24 + (36**2 - math.pi * 10**2) * 24 + 90 * 20 * 16
+    assert abs(volume / drawing - 1) < 2e-4
+    r_big = np.hypot(mesh.points[:, 0], mesh.points[:, 1])
+    on_bore = r_big < 28.0 + 1e-6
+    assert on_bore.sum() > 50 and np.abs(r_big[on_bore] - 28.0).max() < 1e-9
+
+
+def test_boundary_faces_of_a_box_mesh():
+    for cell_type, width in (("hexahedron", 4), ("hexahedron20", 8)):
+        polys = boundary_polygons(box_mesh([3.0, 2.0, 1.0], [3, 2, 1], cell_type))
+        assert polys.shape == (2 * (3 * 2 + 2 * 1 + 1 * 3), width)
+
+
+def test_body_picture_writes_a_png(tmp_path, shipped):
+    path = tmp_path / "beam.png"
+    body_picture(shipped["beam"], path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_sample_command_writes_the_recipe_and_refuses_to_overwrite(tmp_path, shipped):
+    out = tmp_path / "beam.ffrf.h5"
+    result = runner.invoke(app, ["sample", "beam", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert np.abs(read_body(out).integrals.Sbar - shipped["beam"].integrals.Sbar).max() < 1e-12
+    stamp = out.stat().st_mtime_ns
+    again = runner.invoke(app, ["sample", "beam", "-o", str(out)])
+    assert again.exit_code == 2 and "refusing to overwrite" in again.output
+    assert out.stat().st_mtime_ns == stamp
+    bad = runner.invoke(app, ["sample", "teapot", "-o", str(tmp_path / "t.ffrf.h5")])
+    assert bad.exit_code == 2 and "expected one of beam, plate" in bad.output
+
+
+def test_sample_refine_gives_a_finer_mesh(tmp_path):
+    out = tmp_path / "beam2.ffrf.h5"
+    assert runner.invoke(app, ["sample", "beam", "--refine", "2", "-o", str(out)]).exit_code == 0
+    fine = read_body(out, load_fe=True)
+    assert fine.fe.mesh.n_cells == 8 * 80
+    assert abs(fine.frequencies_hz[0] / 106.2 - 1) < 2e-3
+
+
+def test_compare_prints_the_table_and_json(shipped):
+    files = [str(DIR / f"{n}.ffrf.h5") for n in SAMPLES]
+    table = runner.invoke(app, ["compare", *files, "--speed", "1rad/s"], env={"COLUMNS": "240"})
+    assert table.exit_code == 0, table.output
+    for label in ("genstruct1", "carbody", "dI_L axes 1 2 3", "Coriolis ratio", "q_max"):
+        assert label in table.output
+    result = runner.invoke(app, ["compare", *files, "--speed", "1rad/s", "--json"])
+    data = json.loads(result.output)
+    by_name = {b["name"]: b for b in data["bodies"]}
+    assert set(by_name) == set(SAMPLES)
+    beam = by_name["beam"]
+    assert len(beam["frequencies"]) == 10 and len(beam["q_max"]) == 10 and len(beam["dI_Q"]) == 3
+    assert beam["level"] == "III" and by_name["carbody"]["level"] == "I"
+    assert beam["frequencies"][0] == pytest.approx(shipped["beam"].frequencies_hz[0], rel=1e-12)

@@ -70,12 +70,13 @@ def test_damaged_files_through_the_cli_give_one_line_and_exit_2(seeds, tmp_path)
     d, _ = seeds
     rng = np.random.default_rng(7)
     runner = CliRunner()
-    for name in ("seed.ffrf.h5", "seed.ffinv.json", "seed.ffinv.h5"):
+    for name, extra in (("seed.ffrf.h5", []), ("seed.ffinv.json", []), ("seed.ffinv.h5", []),
+                        ("seed.vtu", ["--density", "1", "--eigenvalues", "1,2,3,4"])):
         data = (d / name).read_bytes()
         for _ in range(15):
             path = tmp_path / name
             path.write_bytes(mutate(data, rng))
-            result = runner.invoke(app, ["info", str(path)])
+            result = runner.invoke(app, ["info", str(path), *extra])
             assert result.exit_code in (0, 2), result.output
             if result.exit_code == 2:
                 assert len(result.output.strip().splitlines()) == 1 and "Traceback" not in result.output

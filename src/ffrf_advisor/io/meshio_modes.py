@@ -9,6 +9,8 @@ ignored; any other solid cell is an error naming its type.
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import re
 
@@ -79,9 +81,11 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
     if not os.path.isfile(path):
         raise BodyFileError(path, "file", "an existing file", "not found")
     try:
-        m = meshio.read(path)
-    except Exception as e:  # meshio raises many kinds on bad input
-        raise BodyFileError(path, "file", "a mesh meshio can read", f"{type(e).__name__}: {e}"[:200]) from None
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            m = meshio.read(path)  # meshio prints its complaints; ours is the one line
+    except (Exception, SystemExit) as e:  # meshio raises many kinds on bad input, even SystemExit
+        got = "not parseable as its suffix's format" if isinstance(e, SystemExit) else f"{type(e).__name__}: {e}"
+        raise BodyFileError(path, "file", "a mesh meshio can read", got[:200]) from None
     mesh = _solid_mesh(path, m)
     numbers, Phi = _modes(path, m, mesh.n_nodes)
     nf = len(numbers)

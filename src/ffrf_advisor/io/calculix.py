@@ -114,15 +114,20 @@ class _Frd:
             rec = np.frombuffer(raw, np.dtype([("id", "<i4"), ("x", f"<f{size}", 3)]))
             self.ids, self.nodes = rec["id"].astype(np.int64), rec["x"].astype(float)
             return
+        self.ids, self.nodes = self._ascii_records(fmt, 3, "2C")
+
+    def _ascii_records(self, fmt: int, n: int, field: str) -> tuple[np.ndarray, np.ndarray]:
+        """Records ' -1 node v1 .. vn' up to ' -3' (node id in I10 for the long format 1, else I5)."""
         width = 10 if fmt == 1 else 5
-        ids, xyz = [], []
-        while True:
+        ids, rows = [], []
+        while self.pos < len(self.data):
             line = self._line()
-            if line.startswith(" -3") or self.pos >= len(self.data):
+            if line.startswith(" -3"):
                 break
-            ids.append(self._int(line[3:3 + width], "2C node id"))
-            xyz.append(self._floats(line, 3 + width, 3, "2C node coordinates"))
-        self.ids, self.nodes = np.array(ids, np.int64), np.array(xyz, float).reshape(-1, 3)
+            if line.startswith(" -1"):
+                ids.append(self._int(line[3:3 + width], f"{field} node id"))
+                rows.append(self._floats(line, 3 + width, n, field))
+        return np.array(ids, np.int64), np.array(rows, float).reshape(-1, n)
 
     def _element_type(self, etype: int) -> tuple[str, list[int]]:
         if etype not in ELEMENTS:
@@ -168,16 +173,7 @@ class _Frd:
             rec = np.frombuffer(self._take(count * (4 + 4 * ncomp)), np.dtype([("id", "<i4"), ("v", "<f4", ncomp)]))
             ids, values = rec["id"].astype(np.int64), rec["v"].astype(float)
         else:
-            width = 10 if fmt == 1 else 5
-            ids, rows = [], []
-            while True:
-                line = self._line()
-                if line.startswith(" -3") or self.pos >= len(self.data):
-                    break
-                if line.startswith(" -1"):
-                    ids.append(self._int(line[3:3 + width], f"{name} node id"))
-                    rows.append(self._floats(line, 3 + width, ncomp, name))
-            ids, values = np.array(ids, np.int64), np.array(rows, float).reshape(-1, ncomp)
+            ids, values = self._ascii_records(fmt, ncomp, name)
         self.frequencies[self.mode] = frequency
         self.results[(self.mode, name)] = (ids, values)
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from ffrf_advisor.errors import BodyFileError
-from ffrf_advisor.fe.assembly import mass_matrix
+from ffrf_advisor.fe.assembly import mass_matrix, stiffness_matrix
 from ffrf_advisor.fe.build import modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh
@@ -44,7 +44,7 @@ def jobs(tmp_path_factory):
     shutil.copy(binary_frd, d / "stored.frd")
     shutil.copy(d / "binary.dat", d / "stored.dat")
     _run(d, "stored_matrices", matrix_storage=True)
-    for suffix in (".mas", ".dof"):
+    for suffix in (".mas", ".sti", ".dof"):
         os.replace(d / f"stored_matrices{suffix}", d / f"stored{suffix}")
     return {"ascii": ascii_frd, "binary": binary_frd, "stored": d / "stored.frd"}
 
@@ -71,11 +71,13 @@ def test_calculix_agrees_with_the_built_in_generator(jobs, reference, job):
     assert any("6 rigid dropped" in n for n in body.provenance.notes)
 
 
-def test_stored_mass_matrix_equals_the_assembled_one(jobs):
-    stored = read_body(jobs["stored"])
-    assert any("matrix storage" in n for n in stored.provenance.notes)
+def test_stored_mass_and_stiffness_equal_the_assembled_ones(jobs):
+    stored = read_body(jobs["stored"], load_fe=True)
+    assert any("mass and stiffness: CalculiX matrix storage" in n for n in stored.provenance.notes)
     Ms = mass_matrix(MESH, STEEL.rho)
     assert abs(stored.fe.Ms - Ms).max() < 1e-9 * abs(Ms).max()
+    K = stiffness_matrix(MESH, STEEL)  # the stored body is in the same (principal, CoM) frame: no rotation
+    assert abs(stored.fe.K - K).max() < 1e-9 * abs(K).max()
 
 
 def test_eigenvalues_fall_back_to_the_frd_frequencies(jobs, reference, tmp_path):

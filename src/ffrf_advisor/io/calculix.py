@@ -6,7 +6,8 @@ Eigenvalues come from the .dat table (7 digits) when it is beside the
 .frd, else from the frequencies of the .frd (6 digits). The mass matrix is
 the one CalculiX stored with ``*FREQUENCY, SOLVER=MATRIXSTORAGE`` (.mas,
 .dof) when present, else the consistent mass assembled from the mesh and
-the ``*DENSITY`` of the deck (.inp). Rigid modes (near-zero eigenvalues)
+the ``*DENSITY`` of the deck (.inp); the stiffness K from .sti when
+present. Rigid modes (near-zero eigenvalues)
 are dropped; a count other than six is reported in the provenance notes.
 """
 from __future__ import annotations
@@ -225,24 +226,32 @@ def _deck_density(frd: _Frd, path: Path) -> float:
     frd.fail(f"{path.name}: *DENSITY", "a density line after *DENSITY")
 
 
-def _stored_mass(frd: _Frd, stem: Path, index: dict) -> sp.csr_array | None:
-    """The scalar mass Ms from job.mas/.dof (3n x 3n = kron(Ms, I3) for solids), or None."""
-    mas, dof = stem.with_suffix(".mas"), stem.with_suffix(".dof")
-    if not (mas.is_file() and dof.is_file()):
-        return None
+def _stored_matrix(frd: _Frd, path: Path, rows: np.ndarray, n3: int) -> sp.csr_array:
+    """A symmetric matrix from CalculiX 'row col value' triplets (upper triangle, 1-based DOF numbers)."""
     try:
-        labels = [l.split(".") for l in dof.read_text().split()]
-        rows = np.array([3 * index[int(n)] + int(c) - 1 for n, c in labels])
-        i, j, v = np.loadtxt(mas, ndmin=2).T
+        i, j, v = np.loadtxt(path, ndmin=2).T
+        i, j = rows[i.astype(int) - 1], rows[j.astype(int) - 1]
+    except (ValueError, IndexError) as e:
+        frd.fail(path.name, "'row col value' triplets over the DOFs of the .dof file", str(e)[:60])
+    off = i != j
+    return sp.coo_array((np.r_[v, v[off]], (np.r_[i, j[off]], np.r_[j, i[off]])), shape=(n3, n3)).tocsr()
+
+
+def _stored_matrices(frd: _Frd, stem: Path, index: dict) -> tuple[sp.csr_array | None, sp.csr_array | None]:
+    """Scalar mass Ms (from M = kron(Ms, I3)) and stiffness K from job.mas/.sti/.dof, or None."""
+    mas, sti, dof = (stem.with_suffix(s) for s in (".mas", ".sti", ".dof"))
+    if not (mas.is_file() and dof.is_file()):
+        return None, None
+    try:
+        rows = np.array([3 * index[int(n)] + int(c) - 1 for n, c in (l.split(".") for l in dof.read_text().split())])
     except (ValueError, KeyError) as e:
-        frd.fail(mas.name, "'row col value' triplets over the DOFs of job.dof", str(e)[:60])
+        frd.fail(dof.name, "node.dof labels of nodes in the .frd", str(e)[:60])
     n3 = 3 * len(index)
-    i, j = rows[i.astype(int) - 1], rows[j.astype(int) - 1]
-    M = sp.coo_array((np.r_[v, v[i != j]], (np.r_[i, j[i != j]], np.r_[j, i[i != j]])), shape=(n3, n3)).tocsr()
+    M = _stored_matrix(frd, mas, rows, n3)
     Ms = sp.csr_array(M[0::3, 0::3])
     if abs(M - full_mass(Ms)).max() > 1e-10 * abs(Ms).max():
         frd.fail(mas.name, "a mass matrix of the form kron(Ms, I3) (solid elements)")
-    return Ms
+    return Ms, (_stored_matrix(frd, sti, rows, n3) if sti.is_file() else None)
 
 
 def read(path, load_fe: bool = False) -> FlexibleBody:
@@ -281,12 +290,13 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     flex = ~rigid
     if not flex.any():
         frd.fail("DISP", "at least one flexible mode", "only rigid modes")
-    Ms = _stored_mass(frd, stem, index)
+    Ms, K = _stored_matrices(frd, stem, index)
     if Ms is None:
         Ms = mass_matrix(mesh, _deck_density(frd, stem.with_suffix(".inp")))
         notes.append("mass: consistent, assembled from the mesh and *DENSITY of the deck")
     else:
-        notes.append("mass: CalculiX matrix storage (.mas/.dof)")
+        notes.append("mass" + (" and stiffness" if K is not None else "") + ": CalculiX matrix storage (.mas/.dof"
+                     + ("/.sti)" if K is not None else ")"))
     M, S = full_mass(Ms), Phi[:, :, flex].reshape(-1, int(flex.sum()))
     scale = np.sqrt(np.einsum("ip,ip->p", S, M @ S))
     Phi_n = mass_normalised(S, M).reshape(mesh.n_nodes, 3, -1)
@@ -295,7 +305,7 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
         name=Path(path).name.split(".")[0], integrals=shape_integrals(mesh.points, Ms, Phi_n),
         eigenvalues=lam[flex], units=TMM, sigma_max=None if stress is None else stress.max(axis=0),
         provenance=Provenance(source=str(path), mass_matrix="consistent", notes=tuple(notes)),
-        fe=ModalFE(mesh, Ms, Phi_n, None, stress),
+        fe=ModalFE(mesh, Ms, Phi_n, K, stress),
     )
     return body.in_principal_frame()[0]
 

@@ -1,13 +1,15 @@
 """A FlexibleBody from a solid mesh: assembly, free-free modes, modal stress, invariants."""
 from __future__ import annotations
 
+import numpy as np
+
 from ..body import FlexibleBody, ModalFE, Provenance
 from ..invariants import shape_integrals
 from ..units import TMM
-from .assembly import mass_matrix, stiffness_matrix
+from .assembly import full_mass, mass_matrix, stiffness_matrix
 from .material import Material
 from .mesh import Mesh
-from .modal import free_free_modes
+from .modal import free_free_modes, mass_normalised
 from .stress import modal_von_mises
 
 
@@ -29,13 +31,29 @@ def modal_body(mesh: Mesh, material: Material, n_modes: int, name: str = "body",
                f"{mesh.n_cells} x {', '.join(mesh.cells)}, {mesh.n_nodes} nodes"
                + (f", {lumping} lumped mass" if lumping else "")),
     )
+    return fe_body(name, mesh, Ms, modes.Phi, modes.eigenvalues, provenance, K, stress)
+
+
+def fe_body(name: str, mesh: Mesh, Ms, Phi: np.ndarray, eigenvalues: np.ndarray, provenance: Provenance,
+            K=None, stress: np.ndarray | None = None) -> FlexibleBody:
+    """The body of mass-normalised modes on ``mesh`` (t-mm-N-s), in its CoM principal frame."""
     body = FlexibleBody(
         name=name,
-        integrals=shape_integrals(mesh.points, Ms, modes.Phi),
-        eigenvalues=modes.eigenvalues,
+        integrals=shape_integrals(mesh.points, Ms, Phi),
+        eigenvalues=eigenvalues,
         units=TMM,
-        sigma_max=stress.max(axis=0),
+        sigma_max=None if stress is None else stress.max(axis=0),
         provenance=provenance,
-        fe=ModalFE(mesh, Ms, modes.Phi, K, stress),
+        fe=ModalFE(mesh, Ms, Phi, K, stress),
     )
     return body.in_principal_frame()[0]
+
+
+def mass_normalised_file_modes(Ms, Phi: np.ndarray, stress: np.ndarray | None):
+    """Modes (n, 3, nf) of a file scaled to unit modal mass, their nodal stresses scaled alike.
+
+    Returns (Phi, stress, scale) with ``scale`` the file modes' sqrt(modal mass).
+    """
+    M, S = full_mass(Ms), Phi.reshape(-1, Phi.shape[2])
+    scale = np.sqrt(np.einsum("ip,ip->p", S, M @ S))
+    return (mass_normalised(S, M).reshape(Phi.shape), None if stress is None else stress / scale, scale)

@@ -19,15 +19,13 @@ from pathlib import Path
 import numpy as np
 import scipy.sparse as sp
 
-from ..body import FlexibleBody, ModalFE, Provenance
+from ..body import FlexibleBody, Provenance
 from ..errors import BodyFileError
 from ..fe.assembly import full_mass, mass_matrix
+from ..fe.build import fe_body, mass_normalised_file_modes
 from ..fe.material import Material
 from ..fe.mesh import Mesh
-from ..fe.modal import mass_normalised
 from ..fe.stress import von_mises
-from ..invariants import shape_integrals
-from ..units import TMM
 from . import Format, register
 
 # frd element type -> (meshio type, frd position of each VTK/deck node)
@@ -297,17 +295,9 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     else:
         notes.append("mass" + (" and stiffness" if K is not None else "") + ": CalculiX matrix storage (.mas/.dof"
                      + ("/.sti)" if K is not None else ")"))
-    M, S = full_mass(Ms), Phi[:, :, flex].reshape(-1, int(flex.sum()))
-    scale = np.sqrt(np.einsum("ip,ip->p", S, M @ S))
-    Phi_n = mass_normalised(S, M).reshape(mesh.n_nodes, 3, -1)
-    stress = None if stress is None else stress[:, flex] / scale
-    body = FlexibleBody(
-        name=Path(path).name.split(".")[0], integrals=shape_integrals(mesh.points, Ms, Phi_n),
-        eigenvalues=lam[flex], units=TMM, sigma_max=None if stress is None else stress.max(axis=0),
-        provenance=Provenance(source=str(path), mass_matrix="consistent", notes=tuple(notes)),
-        fe=ModalFE(mesh, Ms, Phi_n, K, stress),
-    )
-    return body.in_principal_frame()[0]
+    Phi_n, stress, _ = mass_normalised_file_modes(Ms, Phi[:, :, flex], None if stress is None else stress[:, flex])
+    return fe_body(Path(path).name.split(".")[0], mesh, Ms, Phi_n, lam[flex],
+                   Provenance(source=str(path), mass_matrix="consistent", notes=tuple(notes)), K, stress)
 
 
 # ---------------------------------------------------------------- decks

@@ -16,14 +16,12 @@ import re
 
 import numpy as np
 
-from ..body import FlexibleBody, ModalFE, Provenance
+from ..body import FlexibleBody, Provenance
 from ..errors import BodyFileError
-from ..fe.assembly import full_mass, mass_matrix
+from ..fe.assembly import mass_matrix
+from ..fe.build import fe_body, mass_normalised_file_modes
 from ..fe.elements import ELEMENT_TYPES
 from ..fe.mesh import Mesh
-from ..fe.modal import mass_normalised
-from ..invariants import shape_integrals
-from ..units import TMM
 from . import Format, register
 
 SUFFIXES = (".vtu", ".vtk", ".xdmf", ".xmf", ".med", ".msh")
@@ -94,23 +92,14 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
     if rho <= 0 or np.any(lam <= 0):
         raise BodyFileError(path, "density" if rho <= 0 else "eigenvalues", "positive values (flexible modes only)")
     Ms = mass_matrix(mesh, rho)
-    M, S = full_mass(Ms), Phi.reshape(-1, nf)
-    scale = np.sqrt(np.einsum("ip,ip->p", S, M @ S))  # the file's modal masses, square-rooted
-    Phi_n = mass_normalised(S, M).reshape(Phi.shape)
-    stress = _stress(path, m, mesh.n_nodes, numbers)
-    stress = None if stress is None else stress / scale
-    body = FlexibleBody(
-        name=os.path.basename(str(path)).split(".")[0],
-        integrals=shape_integrals(mesh.points, Ms, Phi_n), eigenvalues=lam, units=TMM,
-        sigma_max=None if stress is None else stress.max(axis=0),
-        provenance=Provenance(source=str(path), mass_matrix="consistent",
-                              method="consistent mass assembled from the mesh; nodal sums (theory section 3)",
-                              notes=(f"density {rho:g}; modes mass-normalised (file scale factors "
-                                     f"{', '.join(f'{1 / s:.4g}' for s in scale[:4])}{' ...' if nf > 4 else ''})",
-                                     f"{mesh.n_cells} x {', '.join(mesh.cells)}, {mesh.n_nodes} nodes")),
-        fe=ModalFE(mesh, Ms, Phi_n, None, stress),
-    )
-    return body.in_principal_frame()[0]
+    Phi_n, stress, scale = mass_normalised_file_modes(Ms, Phi, _stress(path, m, mesh.n_nodes, numbers))
+    provenance = Provenance(
+        source=str(path), mass_matrix="consistent",
+        method="consistent mass assembled from the mesh; nodal sums (theory section 3)",
+        notes=(f"density {rho:g}; modes mass-normalised (file scale factors "
+               f"{', '.join(f'{1 / s:.4g}' for s in scale[:4])}{' ...' if nf > 4 else ''})",
+               f"{mesh.n_cells} x {', '.join(mesh.cells)}, {mesh.n_nodes} nodes"))
+    return fe_body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi_n, lam, provenance, stress=stress)
 
 
 def _given(path, m, field: str, option):

@@ -133,6 +133,8 @@ def test_sample_command_writes_the_recipe_and_refuses_to_overwrite(tmp_path, shi
     assert out.stat().st_mtime_ns == stamp
     bad = runner.invoke(app, ["sample", "teapot", "-o", str(tmp_path / "t.ffrf.h5")])
     assert bad.exit_code == 2 and "expected one of beam, plate" in bad.output
+    huge = runner.invoke(app, ["sample", "beam", "--refine", "50", "-o", str(tmp_path / "h.ffrf.h5")])
+    assert huge.exit_code == 2 and "--refine 50" in huge.output
 
 
 def test_sample_refine_gives_a_finer_mesh(tmp_path):

@@ -18,6 +18,7 @@ from .fe.material import STEEL
 from .fe.mesh import Box, Mesh, box_mesh, box_union_mesh, round_hole
 
 N_MODES = 16
+MAX_REFINE = 4  # carbody at 4: ~1.3 million nodes
 CELL = "hexahedron20"
 
 
@@ -134,7 +135,8 @@ def sample(name: str, refine: int = 1) -> FlexibleBody:
     """The sample body ``name`` at mesh refinement ``refine`` (1: the shipped one)."""
     if name not in RECIPES:
         raise FFRFError(f"sample {name!r}: expected one of {', '.join(SAMPLES)}")
-    if refine < 1:
-        raise FFRFError(f"refine {refine}: expected an integer >= 1")
+    if not 1 <= refine <= MAX_REFINE:
+        raise FFRFError(f"--refine {refine}: expected an integer from 1 to {MAX_REFINE} "
+                        "(the element count grows with its cube)")
     make_mesh, material, _ = RECIPES[name]
     return _without_stiffness(modal_body(make_mesh(refine), material, N_MODES, name=name))

@@ -22,17 +22,12 @@ MAX_REFINE = 4  # carbody at 4: about 370,000 nodes (walls: nodes grow with refi
 CELL = "hexahedron20"
 
 
-def _box(centre, size) -> Box:
-    lo = tuple(c - s / 2 for c, s in zip(centre, size))
-    return Box(lo, tuple(c + s / 2 for c, s in zip(centre, size)))
-
-
 def _square_ring(centre, a: float, b: float, thickness: float) -> list[Box]:
     """Four boxes forming a square frame in the 1-2 plane: outer half-width a, hole half-width b."""
     x, y, z = centre
     w = a - b
-    return [_box((x, y - b - w / 2, z), (2 * a, w, thickness)), _box((x, y + b + w / 2, z), (2 * a, w, thickness)),
-            _box((x - b - w / 2, y, z), (w, 2 * b, thickness)), _box((x + b + w / 2, y, z), (w, 2 * b, thickness))]
+    return [Box.around((x, y - b - w / 2, z), (2 * a, w, thickness)), Box.around((x, y + b + w / 2, z), (2 * a, w, thickness)),
+            Box.around((x - b - w / 2, y, z), (w, 2 * b, thickness)), Box.around((x + b + w / 2, y, z), (w, 2 * b, thickness))]
 
 
 def _without_stiffness(body: FlexibleBody) -> FlexibleBody:
@@ -58,7 +53,7 @@ def conrod_mesh(refine: int = 1) -> Mesh:
     """
     big, small = (0.0, 0.0, 0.0), (0.0, 150.0, 0.0)
     boxes = (_square_ring(big, 42.0, 28.0, 24.0) + _square_ring(small, 18.0, 10.0, 24.0)
-             + [_box((0.0, 87.0, 0.0), (20.0, 90.0, 16.0))])
+             + [Box.around((0.0, 87.0, 0.0), (20.0, 90.0, 16.0))])
     mesh = box_union_mesh(boxes, 7.0 / refine, CELL)
     return mesh.mapped(round_hole(big, 2, 28.0, 28.0, 42.0)).mapped(round_hole(small, 2, 10.0, 10.0, 18.0))
 
@@ -78,11 +73,11 @@ class GenStruct:
 
     def boxes(self) -> list[Box]:
         R, L, t = self.R, self.L, self.t
-        parts = [_box((0.0, 0.0, 0.0), (60.0, 60.0, 60.0))]
+        parts = [Box.around((0.0, 0.0, 0.0), (60.0, 60.0, 60.0))]
         for s in (-1.0, 1.0):
-            parts += [_box((0.0, s * (R + 30.0) / 2 + s * 5.0, 0.0), (40.0, R - 20.0, 40.0)),  # arm 30..R+10
-                      _box((20.0 + L / 2, s * R, 0.0), (L, t, 30.0)),                          # flexure
-                      _box((20.0 + L + 20.0, s * R, 0.0), (40.0, 40.0, 40.0))]                 # flyweight
+            parts += [Box.around((0.0, s * (R + 30.0) / 2 + s * 5.0, 0.0), (40.0, R - 20.0, 40.0)),  # arm 30..R+10
+                      Box.around((20.0 + L / 2, s * R, 0.0), (L, t, 30.0)),                          # flexure
+                      Box.around((20.0 + L + 20.0, s * R, 0.0), (40.0, 40.0, 40.0))]                 # flyweight
         return parts
 
     def mesh(self, refine: int = 1) -> Mesh:
@@ -101,18 +96,18 @@ def carbody_boxes() -> list[Box]:
     """
     Lx, Ly, Lz, w = 4000.0, 1600.0, 1300.0, 3.0
     X, Y = Lx / 2, Ly / 2
-    boxes = [_box((0, 0, w / 2), (Lx, Ly, w)), _box((0, 0, Lz - w / 2), (Lx, Ly, w)),  # floor, roof
-             _box((-X + w / 2, 0, Lz / 2), (w, Ly, Lz))]                             # rear wall
+    boxes = [Box.around((0, 0, w / 2), (Lx, Ly, w)), Box.around((0, 0, Lz - w / 2), (Lx, Ly, w)),  # floor, roof
+             Box.around((-X + w / 2, 0, Lz / 2), (w, Ly, Lz))]                             # rear wall
     # front wall with a windscreen opening above z = 700
-    boxes += [_box((X - w / 2, 0, 350), (w, Ly, 700)), _box((X - w / 2, -Y + 100, 1000), (w, 200, 600)),
-              _box((X - w / 2, Y - 100, 1000), (w, 200, 600))]
+    boxes += [Box.around((X - w / 2, 0, 350), (w, Ly, 700)), Box.around((X - w / 2, -Y + 100, 1000), (w, 200, 600)),
+              Box.around((X - w / 2, Y - 100, 1000), (w, 200, 600))]
     for s in (-1.0, 1.0):  # side walls: sill below 400, posts, roof rail above 1100
         y = s * (Y - w / 2)
-        boxes += [_box((0, y, 200), (Lx, w, 400)), _box((0, y, 1200), (Lx, w, 200))]
+        boxes += [Box.around((0, y, 200), (Lx, w, 400)), Box.around((0, y, 1200), (Lx, w, 200))]
         for x in (-1800.0, -200.0, 1800.0):  # pillars between the door openings
-            boxes.append(_box((x, y, 750), (400.0, w, 700)))
+            boxes.append(Box.around((x, y, 750), (400.0, w, 700)))
     for x in (-1200.0, -400.0, 400.0, 1200.0):  # cross members under the roof and on the floor
-        boxes += [_box((x, 0, w + 30), (w, Ly, 60.0)), _box((x, 0, Lz - w - 30), (w, Ly, 60.0))]
+        boxes += [Box.around((x, 0, w + 30), (w, Ly, 60.0)), Box.around((x, 0, Lz - w - 30), (w, Ly, 60.0))]
     return boxes
 
 

@@ -16,11 +16,11 @@ import numpy as np
 _CORNERS = np.array(
     [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
      [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], dtype=float)
-_EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4),
+EDGES = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4),
           (0, 4), (1, 5), (2, 6), (3, 7)]
 # VTK_TRIQUADRATIC_HEXAHEDRON face centres: -x, +x, -y, +y, -z, +z, then the body centre.
 _FACES = np.array([[-1, 0, 0], [1, 0, 0], [0, -1, 0], [0, 1, 0], [0, 0, -1], [0, 0, 1]], float)
-_EDGE_MIDS = np.array([(_CORNERS[a] + _CORNERS[b]) / 2 for a, b in _EDGES])
+_EDGE_MIDS = np.array([(_CORNERS[a] + _CORNERS[b]) / 2 for a, b in EDGES])
 
 
 @dataclass(frozen=True)

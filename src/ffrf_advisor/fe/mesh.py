@@ -51,6 +51,12 @@ class Box:
     lo: tuple[float, float, float]
     hi: tuple[float, float, float]
 
+    @classmethod
+    def around(cls, centre: Sequence[float], size: Sequence[float]) -> "Box":
+        """The box of ``size`` centred at ``centre``."""
+        c, h = np.asarray(centre, float), np.asarray(size, float) / 2
+        return cls(tuple(c - h), tuple(c + h))
+
     def contains(self, x: np.ndarray) -> np.ndarray:
         return np.all((x >= np.asarray(self.lo)) & (x <= np.asarray(self.hi)), axis=-1)
 
@@ -107,8 +113,7 @@ def box_mesh(size: Sequence[float], divisions: Sequence[int], cell_type: str = "
              centred: bool = True) -> Mesh:
     """Structured mesh of one box of ``size`` with ``divisions`` elements per axis."""
     size = np.asarray(size, float)
-    lo = -size / 2 if centred else np.zeros(3)
-    box = Box(tuple(lo), tuple(lo + size))
+    box = Box.around(np.zeros(3) if centred else size / 2, size)
     return box_union_mesh([box], size / np.asarray(divisions, float), cell_type)
 
 

@@ -12,7 +12,6 @@ are dropped; a count other than six is reported in the provenance notes.
 """
 from __future__ import annotations
 
-import os
 import struct
 from pathlib import Path
 
@@ -254,8 +253,6 @@ def _stored_matrices(frd: _Frd, stem: Path, index: dict) -> tuple[sp.csr_array |
 
 def read(path, load_fe: bool = False) -> FlexibleBody:
     """A modal body from CalculiX frequency results (t-mm-N-s assumed)."""
-    if not os.path.isfile(path):
-        raise BodyFileError(path, "file", "an existing file", "not found")
     frd = _Frd(path)
     if frd.nodes is None or not frd.elements:
         frd.fail("frd", "a node block (2C) and an element block (3C)", "missing")

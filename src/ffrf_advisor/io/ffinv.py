@@ -17,7 +17,7 @@ import numpy as np
 from .. import __version__
 from ..adams import SIGNS, from_adams, to_adams, w3_from_I9
 from ..body import MASS_KINDS, FlexibleBody, Provenance
-from ..errors import BodyFileError, FFRFError
+from ..errors import BodyFileError
 from ..units import LENGTH, MASS, TIME, Units, UnitsError
 from . import Format, register
 from .atomic import atomic_path
@@ -228,6 +228,21 @@ def _frame_note(c: np.ndarray, R: np.ndarray, units: Units) -> str:
             f"(rotation rows {'; '.join(' '.join(f'{x:.6f}' for x in row) for row in R.T)})")
 
 
+def _provenance(d: _Doc, path, inv: dict) -> Provenance:
+    """The file's provenance block (optional), plus which of I5 and I9 it carries."""
+    prov = d.doc.get("provenance") if isinstance(d.doc.get("provenance"), dict) else {}
+    fe_mass = prov.get("fe_mass", "unknown")
+    if fe_mass not in MASS_KINDS:
+        d.fail("provenance.fe_mass", f"one of {', '.join(MASS_KINDS)}", repr(fe_mass))
+    notes = [n for n in str(prov.get("notes", "")).split("\n") if n]
+    if "I9" not in inv:
+        notes.append("no I9 in the file: W2 (quadratic inertia change, centrifugal softening) not evaluable"
+                     + ("" if "I5" in inv else "; no I5 either: W3 (coupling, Coriolis ratio) not evaluable"))
+    carried = ", ".join(k for k in ("I5", "I9") if k in inv) or "without I5, I9"
+    return Provenance(source=str(prov.get("source") or path), mass_matrix=fe_mass,
+                      method=f"Adams-style invariants I1..I9 ({carried})", notes=tuple(notes))
+
+
 def body_from_document(path, doc: dict) -> FlexibleBody:
     d = _Doc(path, doc)
     nf = _check_header(d)
@@ -237,29 +252,12 @@ def body_from_document(path, doc: dict) -> FlexibleBody:
     sign = d.text("conventions", "I8_sign", SIGNS)
     d.text("conventions", "mode_normalisation", ("mass",))
     inv = _invariants(d, nf)
-    fe_mass = "unknown"
-    notes: list[str] = []
-    if isinstance(doc.get("provenance"), dict):
-        fe_mass = doc["provenance"].get("fe_mass", "unknown")
-        if fe_mass not in MASS_KINDS:
-            d.fail("provenance.fe_mass", f"one of {', '.join(MASS_KINDS)}", repr(fe_mass))
-        notes = [n for n in str(doc["provenance"].get("notes", "")).split("\n") if n]
-    missing = [k for k in ("I9", "I5") if k not in inv]
-    if "I9" not in inv:
-        notes.append("no I9 in the file: W2 (quadratic inertia change, centrifugal softening) not evaluable"
-                     + ("" if "I5" in inv else "; no I5 either: W3 (coupling, Coriolis ratio) not evaluable"))
     sigma = d.array("max_von_mises", (nf,)) if "max_von_mises" in doc else None
     if sigma is not None and np.any(sigma < 0):
         d.fail("max_von_mises", "non-negative stresses")
-    body = FlexibleBody(
-        name=os.path.basename(str(path)).split(".")[0], integrals=from_adams(inv, nf, sign),
-        eigenvalues=_eigenvalues(d, nf), units=units, sigma_max=sigma,
-        provenance=Provenance(source=str(doc.get("provenance", {}).get("source", "") or path)
-                              if isinstance(doc.get("provenance"), dict) else str(path),
-                              mass_matrix=fe_mass, method="Adams-style invariants I1..I9 "
-                              f"({', '.join(k for k in ('I5', 'I9') if k not in missing) or 'without I5, I9'})",
-                              notes=tuple(notes)),
-    )
+    body = FlexibleBody(name=os.path.basename(str(path)).split(".")[0], integrals=from_adams(inv, nf, sign),
+                        eigenvalues=_eigenvalues(d, nf), units=units, sigma_max=sigma,
+                        provenance=_provenance(d, path, inv))
     if (origin, axes) != ("cm", "principal"):
         body, c, R = body.in_principal_frame()
         body = replace(body, provenance=replace(body.provenance,
@@ -268,22 +266,11 @@ def body_from_document(path, doc: dict) -> FlexibleBody:
 
 
 def read_json(path, load_fe: bool = False) -> FlexibleBody:
-    return _read(path, _load_json)
+    return body_from_document(path, _load_json(path))
 
 
 def read_h5(path, load_fe: bool = False) -> FlexibleBody:
-    return _read(path, _load_h5)
-
-
-def _read(path, load) -> FlexibleBody:
-    if not os.path.isfile(path):
-        raise BodyFileError(path, "file", "an existing file", "not found")
-    try:
-        return body_from_document(path, load(path))
-    except FFRFError:
-        raise
-    except (ValueError, TypeError, KeyError, AttributeError, OverflowError, np.linalg.LinAlgError) as e:
-        raise BodyFileError(path, "file", "a consistent invariants file", f"{type(e).__name__}: {e}") from None
+    return body_from_document(path, _load_h5(path))
 
 
 register(Format("ffinv-json", (".ffinv.json",), read_json, write_json))

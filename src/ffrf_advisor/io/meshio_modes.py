@@ -76,8 +76,6 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
     """A modal body from a meshio mesh with mode fields (t-mm-N-s)."""
     import meshio
 
-    if not os.path.isfile(path):
-        raise BodyFileError(path, "file", "an existing file", "not found")
     try:
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
             m = meshio.read(path)  # meshio prints its complaints; ours is the one line

@@ -12,13 +12,12 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 from ..body import FlexibleBody  # noqa: E402
 from ..errors import FFRFError  # noqa: E402
-from ..fe.elements import element_type  # noqa: E402
+from ..fe.elements import EDGES, element_type  # noqa: E402
 from ..fe.mesh import Mesh  # noqa: E402
 from ..io.atomic import atomic_path  # noqa: E402
 
 # Faces of a VTK hexahedron by corner index, outward normals.
 _HEX_FACES = ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))
-_HEX_EDGES = ((0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7))
 DEFLECTION_SHOWN = 0.06  # largest drawn deflection / largest body dimension
 
 
@@ -32,7 +31,7 @@ def boundary_polygons(mesh: Mesh) -> np.ndarray:
             for a, b in zip(face, face[1:] + face[:1]):
                 ring.append(conn[:, a])
                 if quadratic:
-                    edge = _HEX_EDGES.index((a, b)) if (a, b) in _HEX_EDGES else _HEX_EDGES.index((b, a))
+                    edge = EDGES.index((a, b)) if (a, b) in EDGES else EDGES.index((b, a))
                     ring.append(conn[:, 8 + edge])
             polys.append(np.stack(ring, axis=1))
     polys = np.concatenate(polys)

@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.cli import app
+from ffrf_advisor.equivalence import compare_modal_bodies
 from ffrf_advisor.fe.assembly import mass_matrix
 from ffrf_advisor.fe.mesh import box_mesh
 from ffrf_advisor.guidelines import Situation
@@ -38,18 +39,6 @@ def test_all_six_are_shipped_small_and_complete(shipped):
         assert body.nf == 16 and str(body.units) == "t-mm-N-s", name
         assert body.sigma_max is not None and body.fe.stress_nodal.shape == (body.fe.mesh.n_nodes, 16), name
         assert body.provenance.mass_matrix == "consistent", name
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", SAMPLES)
-def test_regenerating_reproduces_the_shipped_invariants(name, shipped):
-    made, ref = sample(name), shipped[name]
-    assert np.abs(made.eigenvalues / ref.eigenvalues - 1).max() < 1e-10
-    # relative to each integral's natural scale (mass-normalised modes): some vanish by symmetry
-    m, L = ref.mass, ref.largest_dimension()
-    for field, scale in (("I", m * L**2), ("Ibar", np.sqrt(m) * L), ("Sbar", 1.0), ("mode_sum", np.sqrt(m))):
-        a, b = getattr(made.integrals, field), getattr(ref.integrals, field)
-        assert np.abs(a - b).max() <= 1e-10 * scale, field
 
 
 def test_levels_at_moderate_speed_free_and_stiff(shipped):
@@ -126,7 +115,8 @@ def test_sample_command_writes_the_recipe_and_refuses_to_overwrite(tmp_path, shi
     out = tmp_path / "beam.ffrf.h5"
     result = runner.invoke(app, ["sample", "beam", "-o", str(out)])
     assert result.exit_code == 0, result.output
-    assert np.abs(read_body(out).integrals.Sbar - shipped["beam"].integrals.Sbar).max() < 1e-12
+    made = read_body(out, load_fe=True)
+    assert compare_modal_bodies(made, shipped["beam"], sample("beam", keep_stiffness=True).fe.K).ok
     stamp = out.stat().st_mtime_ns
     again = runner.invoke(app, ["sample", "beam", "-o", str(out)])
     assert again.exit_code == 2 and "refusing to overwrite" in again.output

@@ -126,12 +126,13 @@ RECIPES: dict[str, tuple[Callable[[int], Mesh], object, str]] = {
 SAMPLES = tuple(RECIPES)
 
 
-def sample(name: str, refine: int = 1) -> FlexibleBody:
-    """The sample body ``name`` at mesh refinement ``refine`` (1: the shipped one)."""
+def sample(name: str, refine: int = 1, keep_stiffness: bool = False) -> FlexibleBody:
+    """The sample body ``name`` at mesh refinement ``refine`` (1: the shipped one), K only when asked."""
     if name not in RECIPES:
         raise FFRFError(f"sample {name!r}: expected one of {', '.join(SAMPLES)}")
     if not 1 <= refine <= MAX_REFINE:
         raise FFRFError(f"--refine {refine}: expected an integer from 1 to {MAX_REFINE} "
                         "(the element count grows with its cube)")
     make_mesh, material, _ = RECIPES[name]
-    return _without_stiffness(modal_body(make_mesh(refine), material, N_MODES, name=name))
+    body = modal_body(make_mesh(refine), material, N_MODES, name=name)
+    return body if keep_stiffness else _without_stiffness(body)

@@ -49,7 +49,7 @@ def to_section1_form(X: np.ndarray, Ms: sp.sparray, K: sp.sparray, Psi: np.ndarr
     T = V[:, keep] / np.sqrt(d[keep])
     lam, Z = sla.eigh(T.T @ Kr @ T)
     lam = np.asarray(lam)
-    S = mass_normalised(P @ (T @ Z), M)
+    S = mass_normalised(P @ (T @ Z), M, Xc)
     n, nf = len(X), S.shape[1]
     Phi = np.einsum("ak,iap->ikp", R, S.reshape(n, 3, nf))
     return BasisTransform(lam, Phi, Xc @ R, c, R, int(Psi.shape[1] - nf))

@@ -49,11 +49,11 @@ def fe_body(name: str, mesh: Mesh, Ms, Phi: np.ndarray, eigenvalues: np.ndarray,
     return body.in_principal_frame()[0]
 
 
-def mass_normalised_file_modes(Ms, Phi: np.ndarray, stress: np.ndarray | None):
-    """Modes (n, 3, nf) of a file scaled to unit modal mass, their nodal stresses scaled alike.
+def mass_normalised_file_modes(Ms, Phi: np.ndarray, stress: np.ndarray | None, X: np.ndarray):
+    """Modes (n, 3, nf) of a file on nodes X scaled to unit modal mass, their nodal stresses scaled alike.
 
     Returns (Phi, stress, scale) with ``scale`` the file modes' sqrt(modal mass).
     """
     M, S = full_mass(Ms), Phi.reshape(-1, Phi.shape[2])
     scale = np.sqrt(np.einsum("ip,ip->p", S, M @ S))
-    return (mass_normalised(S, M).reshape(Phi.shape), None if stress is None else stress / scale, scale)
+    return (mass_normalised(S, M, X).reshape(Phi.shape), None if stress is None else stress / scale, scale)

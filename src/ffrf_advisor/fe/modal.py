@@ -32,7 +32,7 @@ def free_free_modes(K: sp.sparray, Ms: sp.sparray, X: np.ndarray, n_flex: int,
     for thin solid elements the rigid eigenvalues are only zero to
     eps * lambda_max, which can be near the first bending eigenvalue). The
     flexible modes are M-orthogonalised against the exact rigid modes,
-    M-normalised and signed so that their largest component is positive.
+    M-normalised and signed by ``signed_modes``.
     """
     M = full_mass(Ms)
     K = sp.csr_array((K + K.T) / 2)
@@ -53,7 +53,7 @@ def free_free_modes(K: sp.sparray, Ms: sp.sparray, X: np.ndarray, n_flex: int,
             f"expected the six lowest modes to be rigid-body motions, found eigenvalues "
             f"{', '.join(f'{x:.3e}' for x in lam[:N_RIGID + 1])} with non-rigid parts "
             f"{', '.join(f'{x:.1e}' for x in off_rigid[:N_RIGID + 1])}: the body is not free-free or not connected")
-    Phi = mass_normalised(without_rigid(vec[:, N_RIGID:], rigid, M), M)
+    Phi = mass_normalised(without_rigid(vec[:, N_RIGID:], rigid, M), M, X)
     return ModalResult(lam[N_RIGID:], Phi.reshape(n3 // 3, 3, n_flex), lam[:N_RIGID])
 
 
@@ -79,10 +79,43 @@ def _outside(S: np.ndarray, rigid: np.ndarray, M: sp.sparray) -> np.ndarray:
     return np.sqrt(np.einsum("ip,ip->p", P, M @ P) / np.einsum("ip,ip->p", S, M @ S))
 
 
-def mass_normalised(S: np.ndarray, M: sp.sparray) -> np.ndarray:
-    """Columns scaled to S^T M S = 1 and signed so that their largest component is positive."""
-    S = S / np.sqrt(np.einsum("ip,ip->p", S, M @ S))
-    return S * np.sign(S[np.argmax(np.abs(S), axis=0), np.arange(S.shape[1])])
+def mass_normalised(S: np.ndarray, M: sp.sparray, X: np.ndarray) -> np.ndarray:
+    """Columns of S (3n x k) scaled to S^T M S = 1 and signed by ``signed_modes`` on the nodes X."""
+    return signed_modes(S / np.sqrt(np.einsum("ip,ip->p", S, M @ S)), M, X)
+
+
+# Reference fields g(x) = cos(2 pi a_k . xi + b_k) per component k, xi = (x - centroid) / extent:
+# one wave or less across the body along skew directions, so no symmetry of a body maps them onto
+# themselves or onto their negatives.
+SIGN_FIELDS = (
+    (np.array([[0.5377, 0.3119, 0.1873], [0.2237, 0.6131, 0.4007], [0.3557, 0.1709, 0.5903]]),
+     np.array([0.4142, 1.2361, 0.7321])),
+    (np.array([[0.2971, 0.5639, 0.1237], [0.6173, 0.1879, 0.3301], [0.1433, 0.3847, 0.6211]]),
+     np.array([1.1071, 0.2679, 0.9273])),
+)
+SIGN_MIN = 1e-6  # |g^T M phi| / |g|_M below which a field does not decide a mode's sign
+
+
+def signed_modes(S: np.ndarray, M: sp.sparray, X: np.ndarray) -> np.ndarray:
+    """Columns of S signed so that ``g^T M s > 0`` for the first reference field g that decides them.
+
+    A sign rule that two machines agree on: the correlation with a smooth
+    field without symmetry is a robust, well-separated number, unlike
+    "largest entry positive", which ties on symmetric bodies where two
+    entries of opposite sign have equal size. Inside a cluster of equal
+    eigenvalues the modes themselves are not unique; the rule signs them
+    all the same.
+    """
+    xi = (X - X.mean(axis=0)) / max(np.ptp(X, axis=0).max(), np.finfo(float).tiny)
+    norms = np.sqrt(np.einsum("ip,ip->p", S, M @ S))
+    sign = np.zeros(S.shape[1])
+    for a, b in SIGN_FIELDS:
+        g = np.cos(2 * np.pi * xi @ a.T + b).reshape(-1)
+        Mg = M @ g
+        c = (Mg @ S) / (np.sqrt(g @ Mg) * norms)
+        undecided = sign == 0
+        sign[undecided & (np.abs(c) > SIGN_MIN)] = np.sign(c[undecided & (np.abs(c) > SIGN_MIN)])
+    return S * np.where(sign == 0, 1.0, sign)
 
 
 def _rayleigh_scale(K: sp.sparray, M: sp.sparray) -> float:

@@ -292,7 +292,8 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     else:
         notes.append("mass" + (" and stiffness" if K is not None else "") + ": CalculiX matrix storage (.mas/.dof"
                      + ("/.sti)" if K is not None else ")"))
-    Phi_n, stress, _ = mass_normalised_file_modes(Ms, Phi[:, :, flex], None if stress is None else stress[:, flex])
+    Phi_n, stress, _ = mass_normalised_file_modes(Ms, Phi[:, :, flex], None if stress is None else stress[:, flex],
+                                                 mesh.points)
     return fe_body(Path(path).name.split(".")[0], mesh, Ms, Phi_n, lam[flex],
                    Provenance(source=str(path), mass_matrix="consistent", notes=tuple(notes)), K, stress)
 

@@ -90,7 +90,7 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
     if rho <= 0 or np.any(lam <= 0):
         raise BodyFileError(path, "density" if rho <= 0 else "eigenvalues", "positive values (flexible modes only)")
     Ms = mass_matrix(mesh, rho)
-    Phi_n, stress, scale = mass_normalised_file_modes(Ms, Phi, _stress(path, m, mesh.n_nodes, numbers))
+    Phi_n, stress, scale = mass_normalised_file_modes(Ms, Phi, _stress(path, m, mesh.n_nodes, numbers), mesh.points)
     provenance = Provenance(
         source=str(path), mass_matrix="consistent",
         method="consistent mass assembled from the mesh; nodal sums (theory section 3)",

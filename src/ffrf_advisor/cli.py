@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 from typing import Annotated, Optional
 
+import numpy as np
 import typer
 from rich.console import Console
 
@@ -19,10 +20,15 @@ from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, parse_speed
 from .io import format_of, formats, read_body, write_body
 from .io.atomic import atomic_path
 from .report.compare import comparison, comparison_table
-from .report.console import analysis_summary, body_summary
-from .report.json_out import analysis_json
+from .report.console import analysis_summary, body_summary, progress_bar, simulation_report
+from .report.json_out import SCHEMA_VERSION, analysis_json
 from .samples import SAMPLES, sample as make_sample
+from .sim.integrate import INTEGRATORS, integrate
+from .sim.model import build_model, initial_state
+from .sim.output import check_output, summary, write_trajectory
+from .sim.setup import q_max_of, simulation_setup
 from .solver_settings import SOLVERS, adams_settings
+from .terms import parse_terms
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Which FFRF inertia terms does a flexible body need? Advice with evidence.")
@@ -171,7 +177,7 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
         with atomic_path(junit, overwrite=True) as tmp:
             write_junit(results, max_level, tmp)
     if as_json:
-        print(json.dumps({"schema_version": 1, "max_level": max_level, "bodies": results}, indent=1))
+        print(json.dumps({"schema_version": SCHEMA_VERSION, "max_level": max_level, "bodies": results}, indent=1))
     else:
         for r in results:
             status = "ERROR" if r["error"] else ("ok" if r["within"] else "EXCEEDS")
@@ -262,3 +268,50 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
         out.print(f"  {term:13s} needs {', '.join(invs)}")
     out.print(f"source: {data['source']}", highlight=False)
     out.print(f"note: {data['pattern_note']}", highlight=False)
+
+
+Terms = Annotated[str, typer.Option("--terms", help="I, II, III, IV, full, advised, or a comma list of term ids.")]
+EXIT_DIVERGED = 3
+
+
+@app.command()
+@handles_errors
+def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms = "full",
+             omega0: str = typer.Option("0,0,0", "--omega0", help="Initial body angular velocity WX,WY,WZ [rad/s]."),
+             q0: Optional[str] = typer.Option(None, "--q0", help="Initial modal coordinates (body units), or 'qmax'."),
+             qd0: Optional[str] = typer.Option(None, "--qd0", help="Initial modal velocities (body units)."),
+             damping: float = typer.Option(0.0, "--damping", help="Modal damping ratio of every mode."),
+             t_end: float = typer.Option(..., "--t-end", help="End time [s]."),
+             integrator: str = typer.Option("dop853", "--integrator", help=f"One of {', '.join(INTEGRATORS)}."),
+             step: Optional[float] = typer.Option(None, "--step", help="Step [s] of the fixed-step methods."),
+             rtol: float = typer.Option(1e-8, "--rtol", help="Relative tolerance of the adaptive methods."),
+             atol: float = typer.Option(1e-10, "--atol", help="Absolute tolerance of the adaptive methods."),
+             output_step: Optional[float] = typer.Option(None, "--output-step", help="Sampling interval [s]."),
+             output: Optional[Path] = typer.Option(None, "--output", "-o", help="Trajectory file (.csv or .h5)."),
+             force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT."),
+             as_json: AsJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
+             widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
+             threshold: Threshold = None, config: Config = None):
+    """Simulate the free body with a term set (theory sections 5, 10); exit 3 when the integration fails."""
+    if output is not None:
+        check_output(output, force)
+    b = _read(body)
+    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, threshold=threshold, config=config)
+    chosen = run_analysis(b, options).advice.terms if terms.strip() == "advised" else parse_terms(terms)
+    model = build_model(b, chosen, damping)
+    setup = simulation_setup(b, t_end, step, output_step, integrator)
+    start = q_max_of(b, options.amplitudes) if q0 is not None and q0.strip() == "qmax" else _numbers("--q0", q0)
+    y0 = initial_state(model, np.array(_numbers("--omega0", omega0)) * setup.per_second,
+                       () if start is None else start, _numbers("--qd0", qd0) or ())
+    with progress_bar(err) as progress:
+        run = integrate(model, y0, setup.t_end, integrator, setup.step, rtol, atol, setup.output_step,
+                        progress=progress)
+    if output is not None:
+        write_trajectory(output, model, run, force)
+    result = summary(model, run, str(b.units))
+    if as_json:
+        print(json.dumps(result, indent=1))
+    else:
+        simulation_report(out, result, output)
+    if run.failed:
+        raise typer.Exit(EXIT_DIVERGED)

@@ -13,6 +13,7 @@ from .amplitudes import Amplitudes
 from .body import FlexibleBody
 from .errors import FFRFError
 from .significance import Significance, coriolis_terms, f_cf1, ratio_state
+from .terms import is_lagrangian, lagrangian_superset, ordered
 from .units import TIME
 
 THRESHOLDS = {
@@ -24,13 +25,13 @@ THRESHOLDS = {
     "centrifugal_ratio": 0.01,  # rule III, cf2
     "softening": 0.01,          # rule III, cf2: (w_op / s_crit)^2
     "speed_ratio": 0.1,         # rule IV: w_op / (2 pi f_sys)
-    "coriolis_ratio": 0.01,     # rule IV, cor_full
-    "coriolis_torque": 0.01,    # rule IV, cor_full: / (|I0| w_op^2)
+    "coriolis_ratio": 0.01,     # rule IV, cor_quad + cor_coupling
+    "coriolis_torque": 0.01,    # rule IV, cor_quad + cor_coupling: / (|I0| w_op^2)
     "softening_warning": 0.5,   # warn when w_op / s_crit exceeds this
 }
 CONNECTIONS = ("free", "soft", "stiff")
 LEVELS = ("I", "II", "III", "IV")
-TERMS = ("gyro0", "cf1", "inertia_lin", "inertia_quad", "cf2", "coupling", "cor1", "cor_full")
+DEFORMATION_CORIOLIS = ("cor_quad", "cor_coupling")  # with cor1: the paper's full Coriolis (G IV)
 
 
 @dataclass(frozen=True)
@@ -62,11 +63,20 @@ class Rule:
 
 @dataclass(frozen=True)
 class Advice:
+    """The level, its exact term set, the evidence, and whether the set is Lagrangian (theory sections 5, 8)."""
+
     level: str
     terms: tuple[str, ...]
     rules: tuple[Rule, ...]
     warnings: tuple[str, ...]
-    energy_consistent: bool
+
+    @property
+    def lagrangian(self) -> bool:
+        return is_lagrangian(self.terms)
+
+    @property
+    def lagrangian_superset(self) -> tuple[str, ...] | None:
+        return lagrangian_superset(self.terms)
 
 
 # ------------------------------------------------------------------ inputs
@@ -209,14 +219,9 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
             warnings.append(f"operating speed is {r:.0%} of the centrifugal-softening limit about axis {k + 1} "
                             f"({sig.s_crit[k] / per_s:.4g} rad/s): the linear FFRF without geometric "
                             "stiffening loses validity there")
-    terms = tuple(t for t in TERMS if any(t in r.terms for r in rules))
+    terms = ordered({t for r in rules for t in r.terms})
     level = max((r.rule for r in rules if r.fired and r.terms), key=LEVELS.index)
-    consistent = not (("inertia_lin" in terms and "cor1" not in terms)
-                      or ({"inertia_quad", "coupling"} & set(terms) and "cor_full" not in terms))
-    if not consistent:
-        warnings.append("this term set is not energy-consistent: inertia terms without their Coriolis "
-                        "counterparts (theory section 5)")
-    return Advice(level, terms, tuple(rules), tuple(warnings), consistent)
+    return Advice(level, terms, tuple(rules), tuple(warnings))
 
 
 def _lacking(body: FlexibleBody) -> str:
@@ -253,8 +258,8 @@ def _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired) -> list[Rule
         full = fired and rule3_fired
         reason = ("rule III fired (beam-like or rotationally soft body)" if full
                   else f"not evaluable: {_lacking(body)}")
-        rules.append(Rule("IV", "cor_full", None, cthr, True if full else (None if fired else False),
-                          ("cor_full",) if full else (), reason))
+        rules.append(Rule("IV", "cor_deformation", None, cthr, True if full else (None if fired else False),
+                          DEFORMATION_CORIOLIS if full else (), reason))
         return rules
     torque = _coriolis_torque(body, amp, sig, w_op)
     cr = sig.coriolis.value
@@ -263,7 +268,7 @@ def _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired) -> list[Rule
     reason = ("rule III fired (beam-like or rotationally soft body)" if rule3_fired else
               f"Coriolis ratio {sig.coriolis.text()}, deformation-dependent Coriolis torque {torque:.3g} "
               f"of |I0| w_op^2 (> {cthr:g}?)")
-    rules.append(Rule("IV", "cor_full", torque, cthr, full, ("cor_full",) if full else (), reason))
+    rules.append(Rule("IV", "cor_deformation", torque, cthr, full, DEFORMATION_CORIOLIS if full else (), reason))
     return rules
 
 

@@ -8,19 +8,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from .terms import BY_ID
+
 SOLVERS = ("adams",)
 
-# Which of Adams' invariants each term of theory section 5 needs (adams_invariants.md section 3.3).
-NEEDS = {
-    "gyro0": (7,),           # I0 = I7
-    "cf1": (8,),             # W1 from I8
-    "inertia_lin": (8,),
-    "cor1": (8,),
-    "inertia_quad": (9,),    # W2 from I9
-    "cf2": (9,),
-    "coupling": (5,),        # W3 from I5 (or I9)
-    "cor_full": (5, 9),
-}
 
 
 @dataclass(frozen=True)
@@ -51,14 +42,14 @@ PATTERN_NOTE = ("INVARIANTS=c1:...:c9 with one true/false flag per invariant is 
 
 def adams_settings(terms: tuple[str, ...]) -> dict:
     """The lightest Adams option whose invariants carry every term, and why."""
-    needed = sorted({i for t in terms for i in NEEDS[t]})
+    needed = sorted({i for t in terms for i in BY_ID[t].adams})
     option = next(o for o in ADAMS_OPTIONS if not set(needed) & set(o.off))
     return {
         "solver": "adams",
         "formulation": option.name,
         "invariants": option.pattern,
         "statement": f"FLEX_BODY/id, ..., INVARIANTS={option.pattern}",
-        "needed_invariants": {t: [f"I{i}" for i in NEEDS[t]] for t in terms},
+        "needed_invariants": {t: [f"I{i}" for i in BY_ID[t].adams] for t in terms},
         "source": option.source,
         "pattern_note": PATTERN_NOTE,
     }

@@ -1,8 +1,12 @@
 """Rich console rendering of a body summary (the `info` command)."""
 from __future__ import annotations
 
+import time
+from contextlib import contextmanager
+
 import numpy as np
 from rich.console import Console
+from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 from ..body import FlexibleBody
@@ -55,12 +59,18 @@ def checks_table(checks: list[Check]) -> Table:
     return table
 
 
+def _not_lagrangian(adv) -> str:
+    superset = adv.lagrangian_superset
+    return ("\n[yellow]not Lagrangian[/yellow] (theory 5: energy and |H| drift); smallest Lagrangian superset: "
+            + (", ".join(superset) if superset else "none"))
+
+
 def analysis_summary(console: Console, a) -> None:
     """Level and term set on top, then amplitudes, significance tables and the evidence per rule."""
     b, amp, sig, adv = a.body, a.amplitudes, a.significance, a.advice
     u = b.units
     console.print(f"[bold]{b.name}[/bold]: level [bold]{adv.level}[/bold]   terms: {', '.join(adv.terms)}"
-                  + ("" if adv.energy_consistent else "   [yellow](not energy-consistent)[/yellow]"))
+                  + ("   (Lagrangian)" if adv.lagrangian else _not_lagrangian(adv)))
     for w in adv.warnings:
         console.print(f"[yellow]warning[/yellow]: {w}")
     t = Table(title=f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "
@@ -110,3 +120,45 @@ def _ratio(r) -> str:
     if r is None:
         return "n/a"
     return f"{r.text()} (|num| {r.numerator:.3e}, |den| {r.denominator:.3e})"
+
+
+@contextmanager
+def progress_bar(console: Console, after_s: float = 1.0):
+    """A callback ``progress(fraction)`` that shows a bar on ``console`` once a run has taken ``after_s``,
+    only on a terminal; yields None elsewhere."""
+    if not console.is_terminal:
+        yield None
+        return
+    start, bar, task = time.perf_counter(), None, None
+
+    def progress(fraction: float) -> None:
+        nonlocal bar, task
+        if bar is None and time.perf_counter() - start > after_s:
+            bar = Progress(TextColumn("simulating"), BarColumn(), TaskProgressColumn(), TimeRemainingColumn(),
+                           console=console, transient=True)
+            bar.start()
+            task = bar.add_task("", total=1.0)
+        if bar is not None:
+            bar.update(task, completed=fraction)
+
+    try:
+        yield progress
+    finally:
+        if bar is not None:
+            bar.stop()
+
+
+def simulation_report(console: Console, s: dict, output) -> None:
+    """The summary of one simulation run (sim.output.summary) in a few lines."""
+    lag = "Lagrangian" if s["lagrangian"] else "not Lagrangian"
+    console.print(f"terms: {', '.join(s['terms'])} ({lag})", highlight=False)
+    step = "" if s["step"] is None else f", step {s['step']:.3g} {s['units'].split('-')[-1]}"
+    console.print(f"{s['integrator']}{step}: {s['steps']} steps, {s['rhs_evaluations']} right-hand sides, "
+                  f"{s['wall_s']:.3g} s wall", highlight=False)
+    drift = lambda x: "n/a" if x is None else f"{x:.2e}"  # noqa: E731
+    console.print(f"drift (relative): energy {drift(s['energy_drift'])}, |H| {drift(s['H_drift'])}, "
+                  f"quaternion norm {s['quaternion_norm_drift']:.2e}", highlight=False)
+    if s["failed"]:
+        console.print(f"[red]FAILED[/red] at t = {s['t_fail']:.6g}: {s['reason']}", highlight=False)
+    if output is not None:
+        console.print(f"wrote {output} ({s['samples']} samples)", highlight=False)

@@ -10,7 +10,7 @@ from ..analysis import Analysis
 from ..guidelines import THRESHOLDS
 from ..significance import Ratio
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: cor_full split into cor_quad + cor_coupling; lagrangian replaces energy_consistent
 
 
 def json_number(x):
@@ -49,7 +49,8 @@ def analysis_json(a: Analysis, source: str) -> dict:
         },
         "level": adv.level,
         "terms": list(adv.terms),
-        "energy_consistent": bool(adv.energy_consistent),
+        "lagrangian": adv.lagrangian,
+        "lagrangian_superset": None if adv.lagrangian_superset is None else list(adv.lagrangian_superset),
         "amplitudes": {
             "q_max": json_array(amp.q_max), "governs": list(amp.governs), "q_cap": amp.q_cap,
             "sigma_allow": amp.sigma_allow, "stress_utilisation": json_array(amp.stress_utilisation),

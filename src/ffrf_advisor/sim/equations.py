@@ -1,0 +1,137 @@
+"""Plain-numpy right-hand side of the free-body FFRF equations for any term set (theory section 5).
+
+The reference the compiled kernels (``sim.kernels``) are tested against;
+readable rather than fast. State ``y = [p, w, q, q']``: unit quaternion
+``p`` (scalar first, body to inertial), body angular velocity ``w``, modal
+coordinates and velocities. Translation decouples for a free body
+(``m a_cm = F``, free-surface modes and CoM origin) and is not integrated.
+
+    [ I_TT   C ] [ w' ]   [ tau - w~ I_TT w - W1 Qf' w - dJ2 w - w~ C q'        ]
+    [ C^T    I ] [ q''] = [ f - Omega^2 q - D q' + cf1 + cf2 - 2 C(q')^T w - G(w) q ]
+
+with ``I_TT = I0 + W1 Qf + J2``, ``J2 = Qf^T W2 Qf``, ``C = Qf^T W3``; each
+piece is present only when its term is in the set (sim.model for the block
+forms). With ``coupling`` the system is solved through the Schur complement
+``I_TT - C C^T`` (3 x 3). In prescribed-rotation mode ``w`` and ``w'`` are
+given and ``q'' = rhs_f - C^T w'``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .model import N_ROT, Model
+
+SYM_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))  # order of the six G(w) matrices
+
+
+def split(y: np.ndarray, nf: int):
+    """(p, w, q, q') views of the state vector."""
+    return y[:4], y[4:7], y[N_ROT:N_ROT + nf], y[N_ROT + nf:N_ROT + 2 * nf]
+
+
+def quaternion_rate(p: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``dp/dt = 0.5 p * (0, w)`` for body angular velocity w."""
+    return 0.5 * np.concatenate(([-p[1:] @ w], p[0] * w + np.cross(p[1:], w)))
+
+
+def linear_inertia(m: Model, q: np.ndarray) -> np.ndarray:
+    """``W1 Qf = 2 tr(C1) I - C1 - C1^T``, ``C1[k, l] = Ibar[k, l] . q``."""
+    C1 = m.Ibar @ q
+    return 2 * np.trace(C1) * np.eye(3) - C1 - C1.T
+
+
+def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """``tr(G) I - G`` with the symmetrised ``G[a, b] = 0.5 (q^T Sbar_ab r + r^T Sbar_ab q)``.
+
+    ``q = r`` gives ``J2 = Qf^T W2 Qf``; ``(q', q)`` gives half of ``dJ2/dt``.
+    """
+    G = np.einsum("r,abrs,s->ab", q, m.Sbar, r)
+    G = 0.5 * (G + G.T)
+    return np.trace(G) * np.eye(3) - G
+
+
+def coupling_matrix(m: Model, q: np.ndarray) -> np.ndarray:
+    """``C = Qf^T W3`` (3 x nf): rows ``W3k[k]^T q``."""
+    return np.einsum("krs,r->ks", m.W3k, q)
+
+
+def inertia(m: Model, q: np.ndarray) -> np.ndarray:
+    """``I_TT`` of the term set: I0, plus W1 Qf with inertia_lin, plus J2 with inertia_quad."""
+    J = np.array(m.I0, float)
+    if m.on("inertia_lin"):
+        J += linear_inertia(m, q)
+    if m.on("inertia_quad"):
+        J += quadratic_inertia(m, q, q)
+    return J
+
+
+def rotational_force(m: Model, q, qd, w, tau) -> np.ndarray:
+    """Right side of the rotational equations: torque, gyroscopic and Coriolis terms of the set."""
+    f = tau - np.cross(w, inertia(m, q) @ w)
+    if m.on("cor1"):
+        f -= linear_inertia(m, qd) @ w
+    if m.on("cor_quad"):
+        f -= 2 * quadratic_inertia(m, qd, q) @ w
+    if m.on("cor_coupling"):
+        f -= np.cross(w, coupling_matrix(m, q) @ qd)
+    return f
+
+
+def flexible_force(m: Model, q, qd, w, fext) -> np.ndarray:
+    """Right side of the flexible equations: loads, stiffness, damping, centrifugal and Coriolis terms."""
+    f = fext - m.eigenvalues * q - m.damping * qd
+    ww = np.outer(w, w)
+    if m.on("cf1"):
+        f += (w @ w) * np.einsum("mmr->r", m.Ibar) - np.einsum("kl,klr->r", ww, m.Ibar)
+    if m.on("cf2"):
+        f += (w @ w) * np.einsum("mmrs,s->r", m.Sbar, q) - np.einsum("kl,lkrs,s->r", ww, m.Sbar, q)
+    if m.on("cor_coupling"):
+        f -= 2 * coupling_matrix(m, qd).T @ w
+    if m.on("geo_stiff"):
+        f -= sum(ww[k, l] * (1 if k == l else 2) * Gkl for (k, l), Gkl in zip(SYM_PAIRS, m.G)) @ q
+    return f
+
+
+def accelerations(m: Model, q, qd, w, tau, fext):
+    """(w', q'') of the free body: block solve, Schur complement on the 3 x 3 block with coupling."""
+    fr, ff = rotational_force(m, q, qd, w, tau), flexible_force(m, q, qd, w, fext)
+    J = inertia(m, q)
+    if not m.on("coupling"):
+        return np.linalg.solve(J, fr), ff
+    C = coupling_matrix(m, q)
+    wd = np.linalg.solve(J - C @ C.T, fr - C @ ff)
+    return wd, ff - C.T @ wd
+
+
+def rhs(m: Model, t: float, y: np.ndarray, tau=None, fext=None, prescribed=None) -> np.ndarray:
+    """``dy/dt``; ``prescribed = (w, w')`` replaces the rotational equations (spin-up scenes)."""
+    nf = m.nf
+    p, w, q, qd = split(y, nf)
+    tau = np.zeros(3) if tau is None else tau
+    fext = np.zeros(nf) if fext is None else fext
+    if prescribed is None:
+        wd, qdd = accelerations(m, q, qd, w, tau, fext)
+    else:
+        w, wd = (np.asarray(v, float) for v in prescribed)
+        qdd = flexible_force(m, q, qd, w, fext)
+        if m.on("coupling"):
+            qdd = qdd - coupling_matrix(m, q).T @ wd
+    return np.concatenate((quaternion_rate(p, w), wd, qd, qdd))
+
+
+def energy(m: Model, y: np.ndarray) -> float:
+    """Kinetic plus strain energy of the term set's own model (theory section 5)."""
+    _, w, q, qd = split(y, m.nf)
+    T = 0.5 * w @ inertia(m, q) @ w + 0.5 * qd @ qd
+    if m.on("coupling"):
+        T += w @ coupling_matrix(m, q) @ qd
+    return float(T + 0.5 * q @ (m.eigenvalues * q))
+
+
+def angular_momentum(m: Model, y: np.ndarray) -> float:
+    """``|H| = |I_TT w + C q'|`` (the inertial-frame norm equals the body-frame one)."""
+    _, w, q, qd = split(y, m.nf)
+    H = inertia(m, q) @ w
+    if m.on("coupling"):
+        H = H + coupling_matrix(m, q) @ qd
+    return float(np.linalg.norm(H))

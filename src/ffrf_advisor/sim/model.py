@@ -1,0 +1,95 @@
+"""The arrays a simulation needs, taken from a FlexibleBody for one term set (theory sections 3, 5).
+
+Notation of theory section 3 with ``Ibar[k, l] = x_k^T Ms Phi_l`` and
+``Sbar[k, l] = Phi_k^T Ms Phi_l``. The W1, W2 and W3 terms are evaluated
+from these blocks (never as dense 3nf x 3nf products):
+
+- ``W1 Qf = 2 tr(C1) I - C1 - C1^T`` with ``C1[k, l] = Ibar[k, l] . q``;
+- ``Qf^T W2 Qf = tr(G) I - G`` with ``G[a, b] = q^T Sbar[a, b] q``;
+- ``Qf^T W3 = C(q)`` with rows ``C[k] = W3k[k]^T q``,
+  ``W3k[k] = sum_ab eps_kab Sbar[a, b]`` (the skew blocks of W3);
+- cf1 ``= |w|^2 tr(Ibar) - sum_kl w_k w_l Ibar[k, l]``;
+- cf2 ``= |w|^2 sum_m Sbar[m, m] q - sum_kl w_k w_l Sbar[l, k] q``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..body import FlexibleBody
+from ..errors import FFRFError
+from ..terms import IDS, is_lagrangian, needed_invariants, ordered
+
+N_ROT = 7  # quaternion (4) and angular velocity (3) lead the state vector
+
+
+@dataclass(frozen=True)
+class Model:
+    """One body and one term set, ready to simulate. State ``y = [p (4), w (3), q (nf), q' (nf)]``.
+
+    ``damping`` holds ``2 zeta_p Omega_p`` per mode; ``G`` the six modal
+    geometric stiffness matrices (theory section 9, order 11 22 33 12 13 23),
+    needed only with ``geo_stiff``.
+    """
+
+    terms: tuple[str, ...]
+    I0: np.ndarray
+    Ibar: np.ndarray      # (3, 3, nf)
+    Sbar: np.ndarray      # (3, 3, nf, nf), zeros when no W2 term is on
+    W3k: np.ndarray       # (3, nf, nf), zeros when no W3 term is on
+    eigenvalues: np.ndarray
+    damping: np.ndarray
+    G: np.ndarray         # (6, nf, nf), zeros without geo_stiff
+
+    @property
+    def nf(self) -> int:
+        return len(self.eigenvalues)
+
+    @property
+    def flags(self) -> np.ndarray:
+        """One 0/1 flag per catalogue term (terms.IDS order), for the compiled kernels."""
+        return np.array([t in self.terms for t in IDS], dtype=np.int64)
+
+    @property
+    def lagrangian(self) -> bool:
+        return is_lagrangian(self.terms)
+
+    def on(self, term: str) -> bool:
+        return term in self.terms
+
+
+def build_model(body: FlexibleBody, terms, damping=0.0, G: np.ndarray | None = None) -> Model:
+    """The Model of ``body`` with term set ``terms`` and modal damping ratio(s) ``damping`` (one or per mode)."""
+    terms = ordered({"gyro0", *terms})
+    ints, nf = body.integrals, body.nf
+    missing = [n for n in needed_invariants(terms) if n in ints.missing or (n == "G" and G is None)]
+    if missing:
+        raise FFRFError(f"{body.name}: term set needs {', '.join(missing)}, which the body does not carry"
+                        + (" (geometric stiffness: computed from FE data, theory section 9)" if "G" in missing else ""))
+    zeta = np.broadcast_to(np.asarray(damping, float), (nf,)) if np.ndim(damping) == 0 else np.asarray(damping, float)
+    if zeta.shape != (nf,) or not np.all(np.isfinite(zeta)) or np.any(zeta < 0):
+        raise FFRFError(f"--damping: expected one or {nf} non-negative ratios, got {np.ravel(damping).tolist()}")
+    need_w2 = any(t in terms for t in ("inertia_quad", "cf2", "cor_quad"))
+    need_w3 = any(t in terms for t in ("coupling", "cor_coupling"))
+    Sbar = np.array(ints.Sbar) if need_w2 else np.zeros((3, 3, nf, nf))
+    W3k = ints.W3().reshape(3, nf, nf) if need_w3 else np.zeros((3, nf, nf))
+    return Model(terms=terms, I0=np.array(body.I0), Ibar=np.array(ints.Ibar), Sbar=np.ascontiguousarray(Sbar),
+                 W3k=np.ascontiguousarray(W3k), eigenvalues=np.array(body.eigenvalues),
+                 damping=2 * zeta * np.sqrt(np.abs(body.eigenvalues)),
+                 G=np.zeros((6, nf, nf)) if G is None else np.ascontiguousarray(G, dtype=float))
+
+
+
+def initial_state(model: Model, omega0=(0.0, 0.0, 0.0), q0=(), qd0=()) -> np.ndarray:
+    """``y0 = [1, 0, 0, 0, omega0, q0, qd0]``: body frame = inertial frame at t = 0; missing modes are zero."""
+    nf = model.nf
+    y = np.zeros(N_ROT + 2 * nf)
+    y[0] = 1.0
+    for name, values, start, size in (("--omega0", omega0, 4, 3), ("--q0", q0, N_ROT, nf),
+                                      ("--qd0", qd0, N_ROT + nf, nf)):
+        values = np.asarray(values, float).ravel()
+        if len(values) > size or not np.all(np.isfinite(values)):
+            raise FFRFError(f"{name}: expected at most {size} finite numbers, got {len(values)}")
+        y[start:start + len(values)] = values
+    return y

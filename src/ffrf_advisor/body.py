@@ -153,6 +153,19 @@ class FlexibleBody:
         body = replace(self, integrals=shifted.rotated(R), fe=fe)
         return body, c, R
 
+    def first_modes(self, nf: int) -> "FlexibleBody":
+        """The body with its first ``nf`` modes only (every quantity per mode truncated alike)."""
+        if not 1 <= nf <= self.nf:
+            raise ValueError(f"first_modes: expected 1 to {self.nf} modes, got {nf}")
+        ints = self.integrals
+        cut = lambda a, axes: None if a is None else a[(slice(None),) * (a.ndim - axes) + (slice(nf),) * axes]  # noqa: E731
+        integrals = replace(ints, Ibar=cut(ints.Ibar, 1), mode_sum=cut(ints.mode_sum, 1),
+                            Sbar=cut(ints.Sbar, 2), spin=cut(ints.spin, 2))
+        fe = None if self.fe is None else replace(self.fe, Phi=self.fe.Phi[:, :, :nf],
+                                                  stress_nodal=cut(self.fe.stress_nodal, 1))
+        return replace(self, integrals=integrals, eigenvalues=self.eigenvalues[:nf],
+                       sigma_max=cut(self.sigma_max, 1), fe=fe)
+
     def converted(self, units: Units) -> "FlexibleBody":
         """The same body in other units; every conversion factor is exact up to one rounding."""
         src = self.units

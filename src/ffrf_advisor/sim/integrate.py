@@ -16,7 +16,6 @@ from typing import Callable
 
 import numpy as np
 import scipy.linalg as sla
-from scipy.integrate import solve_ivp
 
 from .model import Model
 
@@ -63,7 +62,7 @@ class Rhs:
     def __init__(self, model: Model, loads: Loads = Loads()):
         from . import kernels  # lazy: the compiler loads only when a simulation runs
         self.k, self.m, self.loads, self.nfev = kernels, model, loads, 0
-        self.zero3, self.zf = np.zeros(3), np.zeros(model.nf)
+        self.zero3, self.zf, self.work = np.zeros(3), np.zeros(model.nf), kernels.workspace(model.nf)
 
     def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
         m, L = self.m, self.loads
@@ -74,7 +73,7 @@ class Rhs:
         w, wd = (np.asarray(v, float) for v in L.prescribed(t)) if pres else (self.zero3, self.zero3)
         out = np.empty_like(y)
         self.k.rhs_into(np.ascontiguousarray(y, dtype=float), out, m.flags, m.I0, m.Ibar, m.Sbar, m.W3k,
-                        m.eigenvalues, m.damping, m.G, tau, fext, pres, w, wd)
+                        m.eigenvalues, m.damping, m.G, tau, fext, pres, w, wd, self.work)
         return out
 
 
@@ -184,6 +183,7 @@ def _midpoint_step(f, t, y, h):
 
 def _adaptive(model, y0, t_end, method, rtol, atol, output_step, loads) -> Run:
     """scipy's solve_ivp with dense output sampled on the output grid; steps are the accepted ones."""
+    from scipy.integrate import solve_ivp  # 0.2 s to import: only when an adaptive run needs it
     f = Rhs(model, loads)
     start = time.perf_counter()
     with np.errstate(all="ignore"):

@@ -20,10 +20,14 @@ HUGE = 1e150           # any state entry beyond this counts as overflow
 SYM_K = np.array([0, 1, 2, 0, 0, 1])
 SYM_L = np.array([0, 1, 2, 1, 2, 2])
 
-jit = nb.njit(cache=True, nogil=True)
+# Reassociation and contraction (FMA) let LLVM vectorise the dot products; results change at round-off
+# only. No 'nnan'/'ninf': the failure checks rely on isfinite.
+FASTMATH = {"reassoc", "contract"}
+jit = nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
+inline = nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")  # small helpers, inlined
 
 
-@jit
+@inline
 def _solve3(A, b, x):
     """x = A^-1 b for a 3 x 3 matrix (adjugate; the matrices here are symmetric positive definite)."""
     c00 = A[1, 1] * A[2, 2] - A[1, 2] * A[2, 1]
@@ -41,7 +45,7 @@ def _solve3(A, b, x):
     x[2] = (c02 * b[0] + c12 * b[1] + c22 * b[2]) / det
 
 
-@jit
+@inline
 def _cross_sub(a, b, out):
     """out -= a x b."""
     out[0] -= a[1] * b[2] - a[2] * b[1]
@@ -49,23 +53,23 @@ def _cross_sub(a, b, out):
     out[2] -= a[0] * b[1] - a[1] * b[0]
 
 
-@jit
-def _c1(Ibar, x):
-    """C1[k, l] = Ibar[k, l] . x (3 x 3)."""
+def workspace(nf: int) -> tuple:
+    """Scratch arrays of one right-hand side (J, M, G, S: 3 x 3; fr, b: 3; P: 3 x 3 x nf; C: 3 x nf),
+    so that an evaluation allocates nothing."""
+    return (np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3),
+            np.empty((3, 3, nf)), np.empty((3, nf)))
+
+
+@inline
+def _add_linear_inertia(Ibar, x, C1, J):
+    """J += 2 tr(C1) I - C1 - C1^T with C1[k, l] = Ibar[k, l] . x: the W1 Qf of theory section 3."""
     nf = x.shape[0]
-    C1 = np.zeros((3, 3))
     for k in range(3):
         for l in range(3):
             s = 0.0
             for r in range(nf):
                 s += Ibar[k, l, r] * x[r]
             C1[k, l] = s
-    return C1
-
-
-@jit
-def _add_linear_inertia(C1, J):
-    """J += 2 tr(C1) I - C1 - C1^T: the W1 Qf of theory section 3."""
     tr = C1[0, 0] + C1[1, 1] + C1[2, 2]
     for k in range(3):
         J[k, k] += 2.0 * tr
@@ -73,10 +77,9 @@ def _add_linear_inertia(C1, J):
             J[k, l] -= C1[k, l] + C1[l, k]
 
 
-@jit
-def _add_quadratic_inertia(P, x, scale, J):
+@inline
+def _add_quadratic_inertia(P, x, scale, G, J):
     """J += scale (tr(G) I - G) with G[a, b] = x . (P[a, b] + P[b, a]), P[a, b] = Sbar[a, b] q."""
-    G = np.empty((3, 3))
     for a in range(3):
         for b in range(3):
             s = 0.0
@@ -90,7 +93,14 @@ def _add_quadratic_inertia(P, x, scale, J):
             J[a, b] -= scale * G[a, b]
 
 
-@jit
+@inline
+def _zero3x3(A):
+    for k in range(3):
+        for l in range(3):
+            A[k, l] = 0.0
+
+
+@inline
 def _sub_matvec(A, w, out):
     """out -= A w (3 x 3)."""
     for k in range(3):
@@ -98,7 +108,7 @@ def _sub_matvec(A, w, out):
             out[k] -= A[k, l] * w[l]
 
 
-@jit
+@inline
 def _add_centrifugal(B, w, ff):
     """ff[r] += |w|^2 sum_m B[m, m, r] - sum_kl w_k w_l B[k, l, r] (cf1: B = Ibar; cf2: B[k, l] = Sbar[k, l] q)."""
     ww = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
@@ -110,11 +120,10 @@ def _add_centrifugal(B, w, ff):
         ff[r] += s
 
 
-@jit
-def _block_products(Sbar, q):
+@inline
+def _block_products(Sbar, q, P):
     """P[a, b] = Sbar[a, b] q (3, 3, nf): the nine block products all W2 terms use."""
     nf = q.shape[0]
-    P = np.empty((3, 3, nf))
     for a in range(3):
         for b in range(3):
             for r in range(nf):
@@ -122,86 +131,120 @@ def _block_products(Sbar, q):
                 for t in range(nf):
                     s += Sbar[a, b, r, t] * q[t]
                 P[a, b, r] = s
-    return P
+
+
+@inline
+def _coupling(W3k, q, C):
+    """C = Qf^T W3: C[k] = W3k[k]^T q (3 x nf)."""
+    nf = q.shape[0]
+    for k in range(3):
+        for s in range(nf):
+            C[k, s] = 0.0
+    for k in range(3):
+        for r in range(nf):
+            qr = q[r]
+            for s in range(nf):
+                C[k, s] += W3k[k, r, s] * qr
+
+
+@inline
+def _coupling_from_products(P, C):
+    """C[k] = sum_ab eps_kab Sbar[a, b]^T q = sum_ab eps_kab P[b, a], free once P is known."""
+    for s in range(C.shape[1]):
+        C[0, s] = P[2, 1, s] - P[1, 2, s]
+        C[1, s] = P[0, 2, s] - P[2, 0, s]
+        C[2, s] = P[1, 0, s] - P[0, 1, s]
+
+
+@inline
+def _geometric_stiffness(G, w, q, ff):
+    """ff -= G(w) q with G(w) = sum_kl w_k w_l G_kl, the six symmetric pairs stored once."""
+    nf = q.shape[0]
+    for i in range(6):
+        k, l = SYM_K[i], SYM_L[i]
+        c = w[k] * w[l] * (1.0 if k == l else 2.0)
+        for r in range(nf):
+            s = 0.0
+            for t in range(nf):
+                s += G[i, r, t] * q[t]
+            ff[r] -= c * s
+
+
+@inline
+def _solve_schur(J, C, fr, ff, S, b, wd):
+    """w' from (I_TT - C C^T) w' = fr - C ff (the Schur complement on the 3 x 3 block)."""
+    nf = ff.shape[0]
+    for k in range(3):
+        b[k] = fr[k]
+        for s in range(nf):
+            b[k] -= C[k, s] * ff[s]
+        for l in range(3):
+            acc = J[k, l]
+            for s in range(nf):
+                acc -= C[k, s] * C[l, s]
+            S[k, l] = acc
+    _solve3(S, b, wd)
 
 
 @jit
-def rhs_into(y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, tau, fext, prescribed, wp, wdp):
+def rhs_into(y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, tau, fext, prescribed, wp, wdp, work):
     """dy/dt of ``y = [p, w, q, q']`` into ``out``; with ``prescribed`` w = wp and w' = wdp are given."""
     nf = lam.shape[0]
     q = y[7:7 + nf]
     qd = y[7 + nf:7 + 2 * nf]
     w = wp if prescribed else y[4:7]
-    J = I0.copy()
-    fr = tau.copy()
+    J, M, Gq, S, fr, b, P, C = work
+    for k in range(3):
+        fr[k] = tau[k]
+        for l in range(3):
+            J[k, l] = I0[k, l]
     ff = out[7 + nf:7 + 2 * nf]
     for r in range(nf):
         ff[r] = fext[r] - lam[r] * q[r] - dmp[r] * qd[r]
     if flags[INERTIA_LIN]:
-        _add_linear_inertia(_c1(Ibar, q), J)
+        _add_linear_inertia(Ibar, q, M, J)
     if flags[COR1]:
-        W1qd = np.zeros((3, 3))
-        _add_linear_inertia(_c1(Ibar, qd), W1qd)
-        _sub_matvec(W1qd, w, fr)
+        _zero3x3(S)
+        _add_linear_inertia(Ibar, qd, M, S)
+        _sub_matvec(S, w, fr)
     if flags[CF1]:
         _add_centrifugal(Ibar, w, ff)
     if flags[INERTIA_QUAD] or flags[CF2] or flags[COR_QUAD]:
-        P = _block_products(Sbar, q)
+        _block_products(Sbar, q, P)
         if flags[INERTIA_QUAD]:
-            _add_quadratic_inertia(P, q, 0.5, J)
+            _add_quadratic_inertia(P, q, 0.5, Gq, J)
         if flags[COR_QUAD]:
-            dJ2 = np.zeros((3, 3))
-            _add_quadratic_inertia(P, qd, 1.0, dJ2)
-            _sub_matvec(dJ2, w, fr)
+            _zero3x3(S)
+            _add_quadratic_inertia(P, qd, 1.0, Gq, S)
+            _sub_matvec(S, w, fr)
         if flags[CF2]:
             _add_centrifugal(P, w, ff)
-    C = np.zeros((3, nf))
-    if flags[COUPLING] or flags[COR_COUPLING]:
-        for k in range(3):
-            for r in range(nf):
-                qr = q[r]
-                for s in range(nf):
-                    C[k, s] += W3k[k, r, s] * qr
+    if (flags[COUPLING] or flags[COR_COUPLING]) and (flags[INERTIA_QUAD] or flags[CF2] or flags[COR_QUAD]):
+        _coupling_from_products(P, C)
+    elif flags[COUPLING] or flags[COR_COUPLING]:
+        _coupling(W3k, q, C)
     if flags[COR_COUPLING]:
-        Cqd = np.zeros(3)
         for k in range(3):
+            b[k] = 0.0
             for s in range(nf):
-                Cqd[k] += C[k, s] * qd[s]
-        _cross_sub(w, Cqd, fr)
+                b[k] += C[k, s] * qd[s]
+        _cross_sub(w, b, fr)
         for k in range(3):
             for r in range(nf):
                 c = 2.0 * w[k] * qd[r]
                 for s in range(nf):
                     ff[s] -= c * W3k[k, r, s]
     if flags[GEO_STIFF]:
-        for i in range(6):
-            k, l = SYM_K[i], SYM_L[i]
-            c = w[k] * w[l] * (1.0 if k == l else 2.0)
-            for r in range(nf):
-                s = 0.0
-                for t in range(nf):
-                    s += G[i, r, t] * q[t]
-                ff[r] -= c * s
-    # gyroscopic term with the set's I_TT, then the solve
-    Jw = np.zeros(3)
-    for k in range(3):
-        for l in range(3):
-            Jw[k] += J[k, l] * w[l]
-    _cross_sub(w, Jw, fr)
+        _geometric_stiffness(G, w, q, ff)
+    for k in range(3):  # gyroscopic term with the set's I_TT
+        b[k] = J[k, 0] * w[0] + J[k, 1] * w[1] + J[k, 2] * w[2]
+    _cross_sub(w, b, fr)
     wd = out[4:7]
     if prescribed:
         for k in range(3):
             wd[k] = wdp[k]
     elif flags[COUPLING]:
-        S = J.copy()
-        b = fr.copy()
-        for k in range(3):
-            for s in range(nf):
-                b[k] -= C[k, s] * ff[s]
-            for l in range(3):
-                for s in range(nf):
-                    S[k, l] -= C[k, s] * C[l, s]
-        _solve3(S, b, wd)
+        _solve_schur(J, C, fr, ff, S, b, wd)
     else:
         _solve3(J, fr, wd)
     if flags[COUPLING]:
@@ -267,6 +310,9 @@ def rk4_loop(y0, h, nsteps, every, lie, out, flags, I0, Ibar, Sbar, W3k, lam, dm
     """
     n = y0.shape[0]
     zero3, zf = np.zeros(3), np.zeros(lam.shape[0])
+    nf = lam.shape[0]
+    work = (np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3),
+            np.empty((3, 3, nf)), np.empty((3, nf)))
     y = y0.copy()
     ys = np.empty(n)
     k = np.empty((4, n))
@@ -282,7 +328,7 @@ def rk4_loop(y0, h, nsteps, every, lie, out, flags, I0, Ibar, Sbar, W3k, lam, dm
                 for j in range(3):
                     theta[j] = 0.0 if i == 0 else a[i] * h * th[i - 1, j]
                 _rotate_by(y[0:4], theta, ys[0:4])
-            rhs_into(ys, k[i], flags, I0, Ibar, Sbar, W3k, lam, dmp, G, zero3, zf, False, zero3, zero3)
+            rhs_into(ys, k[i], flags, I0, Ibar, Sbar, W3k, lam, dmp, G, zero3, zf, False, zero3, zero3, work)
             if lie:
                 _dexpinv(theta, ys[4:7], th[i])
         for j in range(4, n):

@@ -74,7 +74,7 @@ def summary(model: Model, run: Run, units: str) -> dict:
         "terms": list(model.terms),
         "lagrangian": model.lagrangian,
         "integrator": run.method,
-        "step": run.step,
+        "step": None if run.step is None else float(run.step),
         "t_end": float(run.t[-1]) if len(run.t) else 0.0,
         "samples": len(run.t),
         "steps": int(run.steps),

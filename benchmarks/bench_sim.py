@@ -1,0 +1,177 @@
+"""The simulator's cost: right-hand side per term set, and a free spin side by side with EXUDYN, in one run.
+
+1. Right-hand-side cost of the canonical sets I..IV at nf = 10, 50, 100, 200
+   (a compiled loop of calls, so the call overhead of Python is not
+   measured), and the ratio full / level I (target: at least 20 at nf = 100).
+2. The free spin of ../shared/exudyn.md: a 1000 x 40 x 20 mm steel beam
+   (hex20), w0 = (10, 5, 300) rad/s, q1 = 0.04, q2 = 0.02, RK4 at
+   h = 1e-5 s for 1 s, with 10 and 50 modes: the same modes (ours,
+   mass-normalised) given to EXUDYN's ObjectFFRFreducedOrder (every
+   inertia term, RK44). Prints the largest difference of w(t) and q(t)
+   relative to their amplitudes and the wall-time ratio EXUDYN / ours
+   (target: at least 10 at both). Timings: minimum over repeats, serially.
+
+EXUDYN is not a dependency of the package: install it in the benchmark's
+environment only (`pip install exudyn`); without it part 2 is skipped.
+
+Run: python benchmarks/bench_sim.py [--repeat N] [--skip-exudyn]
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+import numba as nb
+import numpy as np
+
+from ffrf_advisor.fe.assembly import full_mass
+from ffrf_advisor.fe.build import modal_body
+from ffrf_advisor.fe.material import STEEL
+from ffrf_advisor.fe.mesh import box_mesh
+from ffrf_advisor.sim import kernels
+from ffrf_advisor.sim.integrate import integrate
+from ffrf_advisor.sim.model import build_model, initial_state
+from ffrf_advisor.terms import LEVEL_SETS
+
+NF_COST = (10, 50, 100, 200)
+W0 = np.array([10.0, 5.0, 300.0])
+H, T_END = 1e-5, 1.0
+SAMPLE = 1e-3  # s between compared samples
+
+
+@nb.njit
+def _repeat_rhs(n, y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, work):
+    z3, zf = np.zeros(3), np.zeros(lam.shape[0])
+    for _ in range(n):
+        kernels.rhs_into(y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, z3, zf, False, z3, z3, work)
+
+
+def beam(nf: int):
+    """The steel beam 1000 x 40 x 20 mm (long axis 1), hex20, with its stiffness matrix kept."""
+    divisions = (60, 4, 2) if nf <= 50 else (100, 4, 2)
+    return modal_body(box_mesh([1000.0, 40.0, 20.0], divisions, "hexahedron20"), STEEL, nf, name="beam")
+
+
+def rhs_cost(body, terms, repeat: int) -> float:
+    """Seconds per right-hand side of ``terms``, minimum over repeats of a compiled loop."""
+    m = build_model(body, terms)
+    y = initial_state(m, W0, 0.01 * np.ones(body.nf), np.ones(body.nf))
+    out = np.empty_like(y)
+    n = max(100, int(2e6 / body.nf**2))
+    args = (m.flags, m.I0, m.Ibar, m.Sbar, m.W3k, m.eigenvalues, m.damping, m.G, kernels.workspace(body.nf))
+    _repeat_rhs(1, y, out, *args)
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        _repeat_rhs(n, y, out, *args)
+        best = min(best, (time.perf_counter() - t0) / n)
+    return best
+
+
+def part1(repeat: int) -> None:
+    big = beam(max(NF_COST))
+    print("right-hand-side cost [us] per canonical set (beam, compiled loop, min over repeats)")
+    print(f"{'nf':>5} " + " ".join(f"{lv:>9}" for lv in LEVEL_SETS) + f" {'IV / I':>9}")
+    for nf in NF_COST:
+        body = big.first_modes(nf)
+        cost = {lv: rhs_cost(body, terms, repeat) for lv, terms in LEVEL_SETS.items()}
+        print(f"{nf:>5} " + " ".join(f"{cost[lv] * 1e6:9.3f}" for lv in LEVEL_SETS)
+              + f" {cost['IV'] / cost['I']:9.1f}")
+
+
+def ours(body, repeat: int):
+    m = build_model(body, LEVEL_SETS["IV"])
+    q0 = np.zeros(body.nf)
+    q0[:2] = [0.04, 0.02]
+    y0 = initial_state(m, W0, q0)
+    integrate(m, y0, 10 * H, "rk4", H)  # compile outside the timing
+    best, run = np.inf, None
+    for _ in range(repeat):
+        run = integrate(m, y0, T_END, "rk4", H, output_step=SAMPLE)
+        best = min(best, run.wall_s)
+    return best, run
+
+
+def exudyn_run(body, repeat: int):
+    """The same body and modes in EXUDYN; returns (wall, t, w(t) body frame, q(t))."""
+    import exudyn as exu
+    from exudyn.FEM import FEMinterface, ObjectFFRFreducedOrderInterface
+    from exudyn.utilities import SensorNode
+
+    fe = body.fe
+    X, nf = fe.mesh.points, body.nf
+    fem = FEMinterface()
+    fem.nodes = {"Position": X}
+    fem.elements = [{"Name": "body", "Hex8": fe.mesh.cells["hexahedron20"][:, :8]}]
+    fem.massMatrix = full_mass(fe.Ms).tocsr()
+    fem.stiffnessMatrix = fe.K.tocsr()
+    fem.VolumeToSurfaceElements()
+    fem.modeBasis = {"matrix": fe.Phi.reshape(-1, nf)}
+    fem.eigenValues = np.array(body.eigenvalues)
+    cms = ObjectFFRFreducedOrderInterface(fem, rigidBodyNodeType="NodeType.RotationRotationVector")
+    best, data = np.inf, None
+    for _ in range(repeat):
+        SC = exu.SystemContainer()
+        mbs = SC.AddSystem()
+        added = cms.AddObjectFFRFreducedOrder(mbs, positionRef=[0, 0, 0], initialVelocity=[0, 0, 0],
+                                              initialAngularVelocity=list(W0), gravity=[0, 0, 0])
+        q0 = np.zeros(nf)
+        q0[:2] = [0.04, 0.02]
+        mbs.SetNodeParameter(added["nGenericODE2"], "initialCoordinates", list(q0))
+        s_w = mbs.AddSensor(SensorNode(nodeNumber=added["nRigidBody"], storeInternal=True,
+                                       outputVariableType=exu.OutputVariableType.AngularVelocityLocal))
+        s_q = mbs.AddSensor(SensorNode(nodeNumber=added["nGenericODE2"], storeInternal=True,
+                                       outputVariableType=exu.OutputVariableType.Coordinates))
+        mbs.Assemble()
+        ss = exu.SimulationSettings()
+        ss.timeIntegration.numberOfSteps = int(round(T_END / H))
+        ss.timeIntegration.endTime = T_END
+        ss.timeIntegration.verboseMode = 0
+        ss.timeIntegration.explicit.computeMassMatrixInversePerBody = False
+        ss.timeIntegration.explicit.useLieGroupIntegration = True
+        ss.solution.file.write = False
+        ss.solution.sensors.writePeriod = SAMPLE
+        ss.show.statistics = False
+        ss.show.computationTime = False
+        t0 = time.perf_counter()
+        exu.SolveDynamic(mbs, ss, solverType=exu.DynamicSolverType.RK44)
+        best = min(best, time.perf_counter() - t0)
+        data = mbs.GetSensorStoredData(s_w), mbs.GetSensorStoredData(s_q)
+    (w, q) = data
+    return best, w[:, 0], w[:, 1:4], q[:, 1:]
+
+
+def part2(repeat: int) -> None:
+    print("\nfree spin side by side with EXUDYN (RK4, h = 1e-5 s, 1 s; w0 = (10, 5, 300) rad/s)")
+    print(f"{'nf':>4} {'DOF':>7} {'ours [s]':>9} {'EXUDYN [s]':>11} {'EXUDYN/ours':>12} "
+          f"{'max|dw|/max|w|':>15} {'max|dq|/max|q|':>15}")
+    for nf in (10, 50):
+        body = beam(nf)
+        t_ours, run = ours(body, repeat)
+        t_ex, t, w, q = exudyn_run(body, repeat)
+        ours_w = np.array([np.interp(t, run.t, run.y[:, 4 + k]) for k in range(3)]).T
+        ours_q = np.array([np.interp(t, run.t, run.y[:, 7 + k]) for k in range(nf)]).T
+        dw = np.abs(ours_w - w).max() / np.abs(w).max()
+        dq = np.abs(ours_q - q).max() / np.abs(q).max()
+        print(f"{nf:>4} {3 * body.fe.mesh.n_nodes:>7} {t_ours:9.3f} {t_ex:11.3f} {t_ex / t_ours:12.1f} "
+              f"{dw:15.2e} {dq:15.2e}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--skip-exudyn", action="store_true")
+    args = parser.parse_args()
+    part1(args.repeat)
+    if args.skip_exudyn:
+        return
+    try:
+        import exudyn  # noqa: F401
+    except ImportError:
+        print("\nEXUDYN is not installed in this environment (pip install exudyn): side-by-side run skipped")
+        return
+    part2(args.repeat)
+
+
+if __name__ == "__main__":
+    main()

@@ -20,13 +20,14 @@ from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, parse_speed
 from .io import format_of, formats, read_body, write_body
 from .io.atomic import atomic_path
 from .report.compare import comparison, comparison_table
-from .report.console import analysis_summary, body_summary, progress_bar, simulation_report
+from .report.console import analysis_summary, body_summary, progress_bar, simulation_report, verification_report
 from .report.json_out import SCHEMA_VERSION, analysis_json
 from .samples import SAMPLES, sample as make_sample
 from .sim.integrate import INTEGRATORS, integrate
 from .sim.model import build_model, initial_state
 from .sim.output import check_output, summary, write_trajectory
 from .sim.setup import q_max_of, simulation_setup
+from .verify.checks import SCENES, check_verify_options
 from .solver_settings import SOLVERS, adams_settings
 from .terms import parse_terms
 
@@ -315,3 +316,35 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
         simulation_report(out, result, output)
     if run.failed:
         raise typer.Exit(EXIT_DIVERGED)
+
+
+@app.command("verify")
+@handles_errors
+def verify_command(body: Path = typer.Argument(..., help="Body file."),
+                   scene: Optional[list[str]] = typer.Option(None, "--scene", help=f"Scene(s): {', '.join(SCENES)} (default all)."),
+                   tolerance: float = typer.Option(0.01, "--tolerance", help="Largest relative error (orientation: rad)."),
+                   integrator: str = typer.Option("dop853", "--integrator", help=f"One of {', '.join(INTEGRATORS)}."),
+                   step: Optional[float] = typer.Option(None, "--step", help="Step [s] of a fixed-step integrator."),
+                   rtol: float = typer.Option(1e-8, "--rtol", help="Relative tolerance of an adaptive integrator."),
+                   repeats: int = typer.Option(3, "--repeat", help="Timed repeats (serial; the minimum counts)."),
+                   axis: Optional[int] = typer.Option(None, "--axis", help="Principal axis of the scenes (1-3)."),
+                   output: Optional[Path] = typer.Option(None, "--output", "-o", help="Directory for the figures."),
+                   as_json: AsJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
+                   widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
+                   threshold: Threshold = None, config: Config = None):
+    """Verify the advice by simulation: scenes, term sets, errors, cost, stability, Campbell, figures."""
+    from .verify.scenes import SceneOptions
+    from .report.verify_json import study_json
+    from .verify.study import run_study
+    names = list(scene or SCENES)
+    check_verify_options(names, tolerance, integrator, step, rtol, repeats, output)
+    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, threshold=threshold, config=config)
+    b = _read(body)
+    result = run_analysis(b, options)
+    h = None if step is None else simulation_setup(b, 1.0, step, None, integrator).step
+    st = run_study(result, names, tolerance, integrator, h, rtol, repeats, output, SceneOptions(axis=axis))
+    data = study_json(st, str(body))
+    if as_json:
+        print(json.dumps(data, indent=1))
+    else:
+        verification_report(out, data)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 from contextlib import contextmanager
 
 import numpy as np
@@ -162,3 +163,41 @@ def simulation_report(console: Console, s: dict, output) -> None:
         console.print(f"[red]FAILED[/red] at t = {s['t_fail']:.6g}: {s['reason']}", highlight=False)
     if output is not None:
         console.print(f"wrote {output} ({s['samples']} samples)", highlight=False)
+
+
+def _err(x) -> str:
+    return "fail" if x is None else f"{x:.1e}"
+
+
+def verification_report(console: Console, d: dict) -> None:
+    """The verdict on top, then per scene the errors, drift and speed-up of each set, stability and Campbell."""
+    v = d["verdict"]
+    colour = {"agree": "green", "conservative": "yellow", "unsafe": "red"}[v["verdict"]]
+    console.print(f"[bold]{d['body']['name']}[/bold]: advice level {v['advised_level']} "
+                  f"[{colour}]{v['verdict'].upper()}[/{colour}]", highlight=False)
+    console.print(v["text"], highlight=False)
+    for scene in d["scenes"]:
+        ref = scene["reference"]["self_error"]
+        t = Table(title=f"{scene['label']}: {scene['text']}; reference self-convergence "
+                        f"{max(x for x in ref.values() if x is not None):.1e}")
+        for col in ("set", "w", "angle [rad]", "q", "stress", "ok", "speed-up"):
+            t.add_column(col, justify="left" if col == "set" else "right")
+        for r in (r for r in d["results"] if r["scene"] == scene["label"]):
+            e = r["errors"]
+            t.add_row(r["set"], _err(e["w"]), _err(e["orientation"]), _err(e["q"]), _err(e["stress"]),
+                      "yes" if r["meets"] else "[red]no[/red]",
+                      "-" if r["speedup"] is None else f"{r['speedup']:.2f}")
+        console.print(t)
+    s = d["stability"]
+    console.print(f"RK4 step limit at rest: {s['rk4_limit_rest']['measured']:.4g} measured, "
+                  f"{s['rk4_limit_rest']['predicted']:.4g} = 2 sqrt 2 / Omega_max", highlight=False)
+    onset = s["divergence_onset"]
+    if onset:
+        console.print(f"softening divergence about axis {onset['axis']}: at {onset['measured']:.4g} rad/time "
+                      f"by simulation, s_crit {onset['s_crit']:.4g}; without cf2 "
+                      + ("bounded" if onset["bounded_without_cf2"] else "NOT bounded"), highlight=False)
+    errs = d["campbell"]["frequency_error"]
+    console.print("Campbell, largest frequency error against the full set: "
+                  + ", ".join(f"{k} {_err(x)}" for k, x in errs.items()), highlight=False)
+    if d["figures"]:
+        console.print(f"figures: {len(d['figures'])} files in {Path(d['figures'][0]).parent}", highlight=False)

@@ -1,0 +1,64 @@
+"""The versioned JSON of `verify` (schema: docs/verify-schema.json), read from a verify.study.Study."""
+from __future__ import annotations
+
+from dataclasses import asdict
+
+import numpy as np
+
+from ..units import TIME
+from ..verify.study import Study
+from ..verify.workprecision import pareto
+from .json_out import json_number
+
+SCHEMA_VERSION = 1
+
+
+def _clean(obj):
+    """Dataclasses, arrays and numpy scalars to JSON values (inf and NaN to null)."""
+    if hasattr(obj, "__dataclass_fields__"):
+        return {k: _clean(v) for k, v in asdict(obj).items()}
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, np.ndarray)):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        return json_number(obj)
+    return obj
+
+
+def study_json(st: Study, source: str) -> dict:
+    """The documented JSON of ``verify --json`` (docs/verify-schema.json)."""
+    a, ver = st.analysis, st.verification
+    per_s = float(TIME[a.body.units.time])
+    return _clean({
+        "schema_version": SCHEMA_VERSION,
+        "body": {"file": source, "name": a.body.name, "units": str(a.body.units), "nf": a.body.nf},
+        "advice": {"level": a.advice.level, "terms": list(a.advice.terms), "lagrangian": a.advice.lagrangian,
+                   "lagrangian_superset": a.advice.lagrangian_superset},
+        "tolerance": ver.tolerance,
+        "integrator": ver.integrator,
+        "scenes": [{"name": s.name, "label": s.label, "axis": s.axis + 1, "duration": s.duration,
+                    "speed_rad_s": s.speed / per_s, "damping": s.damping, "text": s.text,
+                    "reference": {"integrator": "dop853", "rtol": 1e-10, "self_error": ver.references[s.label].self_error,
+                                  "wall_s": ver.references[s.label].wall_s}} for s in ver.scenes],
+        "results": [{"set": r.set.label, "terms": list(r.set.terms), "lagrangian": r.set.lagrangian,
+                     "scene": r.scene, "errors": r.errors, "meets": r.meets(ver.tolerance),
+                     "energy_drift": r.energy_drift, "H_drift": r.H_drift, "wall_s": r.wall_s,
+                     "rhs_evaluations": r.nfev, "failed": r.failed, "reason": r.reason, "speedup": r.speedup}
+                    for r in ver.results],
+        "verdict": {"verdict": ver.verdict.verdict, "advised_level": ver.verdict.advised_level,
+                    "cheapest": ver.verdict.cheapest, "text": ver.verdict.text,
+                    "broken": [{"scene": s, "quantity": q, "error": e} for s, q, e in ver.verdict.broken]},
+        "work_precision": {"scene": ver.scenes[0].label, "timing": "wall time, minimum over repeats, taken serially "
+                           "on this machine", "points": st.work_precision, "pareto": pareto(st.work_precision)},
+        "stability": st.stability,
+        "campbell": {"axis_of_error": st.campbell["axis_of_error"] + 1, "speed": st.campbell["speed"],
+                     "frequency_error": st.campbell["frequency_error"], "s_crit": st.campbell["s_crit"],
+                     "speeds": st.campbell["speeds"],
+                     "frequencies": {str(k + 1): v for k, v in st.campbell["by_axis"].items()}},
+        "figures": list(st.figures),
+    })

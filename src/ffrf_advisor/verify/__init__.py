@@ -1,0 +1,1 @@
+"""Verification of advice by simulation: scenes, error measures, term-set comparison, stability, sweeps (theory section 10)."""

@@ -1,0 +1,183 @@
+"""Run the reference and the term sets through the scenes; errors, cost, speed-up and the verdict (theory section 10).
+
+Reference: the full term set with DOP853 at ``REF_RTOL``, checked by
+self-convergence against a run at ``REF_RTOL / 100`` (their difference is
+reported and must be far below the smallest error that matters). Every
+set is run with the same integrator and sampled on the reference's grid;
+its wall time is the minimum over repeats taken serially.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..analysis import Analysis
+from ..sim.integrate import FIXED, Run, integrate
+from ..sim.model import Model, build_model, initial_state
+from ..sim.output import summary
+from ..terms import FULL, LEVEL_SETS, is_lagrangian, lagrangian_superset
+from .measures import QUANTITIES, errors, worst
+from .scenes import Scene
+
+REF_RTOL = 1e-10
+SAMPLES = 400  # samples per scene, shared by every run
+
+
+@dataclass(frozen=True)
+class TermSet:
+    label: str
+    terms: tuple[str, ...]
+
+    @property
+    def lagrangian(self) -> bool:
+        return is_lagrangian(self.terms)
+
+
+@dataclass(frozen=True)
+class SetResult:
+    """One term set in one scene."""
+
+    set: TermSet
+    scene: str
+    errors: dict
+    energy_drift: float | None
+    H_drift: float | None
+    wall_s: float
+    nfev: int
+    failed: bool
+    reason: str
+    speedup: float | None = None  # wall(full) / wall(this set), same integrator
+
+    def meets(self, tolerance: float) -> bool:
+        return not self.failed and worst(self.errors) <= tolerance
+
+
+@dataclass(frozen=True)
+class Reference:
+    run: Run
+    self_error: dict      # errors of the run at REF_RTOL against the one at REF_RTOL / 100
+    wall_s: float
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """'agree', 'conservative' or 'unsafe', what broke the advice, and the cheapest adequate canonical set."""
+
+    verdict: str
+    advised_level: str
+    cheapest: str | None
+    broken: tuple[tuple[str, str, float], ...]  # (scene, quantity, error) above the tolerance
+    text: str
+
+
+@dataclass(frozen=True)
+class Verification:
+    tolerance: float
+    integrator: str
+    scenes: tuple[Scene, ...]
+    references: dict
+    results: tuple[SetResult, ...]
+    verdict: Verdict
+    extra: dict = field(default_factory=dict)
+
+
+def term_sets(a: Analysis) -> tuple[TermSet, ...]:
+    """The advised set, the canonical levels (IV is the full set), and the advice's smallest Lagrangian superset."""
+    sets = [TermSet("advised", a.advice.terms)] + [TermSet(lv if lv != "IV" else "IV (full)", t)
+                                                   for lv, t in LEVEL_SETS.items()]
+    superset = lagrangian_superset(a.advice.terms)
+    if superset is not None and superset != a.advice.terms:
+        sets.append(TermSet("Lagrangian superset", superset))
+    return tuple(sets)
+
+
+def grid_step(scene: Scene, step: float | None) -> tuple[float, float | None]:
+    """(output step, integration step): the output step is a whole number of integration steps."""
+    out = scene.duration / SAMPLES
+    if step is None:
+        return out, None
+    return out, out / np.ceil(out / step - 1e-9)
+
+
+def state_scales(model: Model, scene: Scene) -> np.ndarray:
+    """Absolute-tolerance scales of the state: 1 (quaternion), the speed, q and q' of the scene's size."""
+    om = np.sqrt(np.abs(model.eigenvalues))
+    q = np.maximum(np.abs(scene.q0), 1e-6 * max(np.abs(scene.q0).max(), 1e-30)) if scene.q0.any() else 1.0 / om
+    w = max(np.linalg.norm(scene.omega0), scene.speed, 1e-12)
+    return np.concatenate([np.ones(4), np.full(3, w), q * np.ones(model.nf), om * q])
+
+
+def run_scene(model: Model, scene: Scene, integrator: str = "dop853", step: float | None = None,
+              rtol: float = 1e-8) -> Run:
+    """One run of ``model`` through ``scene``, sampled every duration / SAMPLES."""
+    out, h = grid_step(scene, step if integrator in FIXED else None)
+    y0 = initial_state(model, scene.omega0, scene.q0, scene.qd0)
+    atol = rtol * state_scales(model, scene)
+    return integrate(model, y0, scene.duration, integrator, h, rtol, atol, out, scene.loads)
+
+
+def reference(a: Analysis, scene: Scene) -> Reference:
+    """The full set at REF_RTOL, and its self-convergence error against REF_RTOL / 100."""
+    model = build_model(a.body, FULL, scene.damping)
+    run = run_scene(model, scene, "dop853", rtol=REF_RTOL)
+    tight = run_scene(model, scene, "dop853", rtol=REF_RTOL / 100)
+    return Reference(run, scene_errors(a, run, tight), run.wall_s)
+
+
+def scene_errors(a: Analysis, run: Run, ref: Run) -> dict:
+    """The errors of theory section 10 with the floors of the analysis (q_max, sigma_allow)."""
+    return errors(run, ref, a.body.sigma_max, a.amplitudes.q_max, a.amplitudes.sigma_allow)
+
+
+def run_set(a: Analysis, ts: TermSet, scene: Scene, ref: Reference, integrator: str, step: float | None,
+            rtol: float, repeats: int) -> SetResult:
+    """Errors of one set against the reference; cost as the minimum wall time over ``repeats`` serial runs."""
+    model = build_model(a.body, ts.terms, scene.damping)
+    runs = [run_scene(model, scene, integrator, step, rtol) for _ in range(max(1, repeats))]
+    run = runs[0]
+    s = summary(model, run, str(a.body.units))
+    return SetResult(ts, scene.label, scene_errors(a, run, ref.run), s["energy_drift"], s["H_drift"],
+                     min(r.wall_s for r in runs), run.nfev, run.failed, run.reason)
+
+
+def verify(a: Analysis, scenes, tolerance: float = 0.01, integrator: str = "dop853", step: float | None = None,
+           rtol: float = 1e-8, repeats: int = 3) -> Verification:
+    """Every term set through every scene against the reference, and the verdict on the advice."""
+    sets = term_sets(a)
+    refs, results = {}, []
+    for scene in scenes:
+        ref = refs[scene.label] = reference(a, scene)
+        rows = [run_set(a, ts, scene, ref, integrator, step, rtol, repeats) for ts in sets]
+        full = next(r for r in rows if r.set.terms == FULL)
+        results += [_with_speedup(r, full.wall_s) for r in rows]
+    return Verification(tolerance, integrator, tuple(scenes), refs, tuple(results),
+                        judge(a, tuple(results), tolerance))
+
+
+def _with_speedup(r: SetResult, full_wall: float) -> SetResult:
+    return replace(r, speedup=full_wall / r.wall_s if r.wall_s > 0 else None)
+
+
+def judge(a: Analysis, results: tuple[SetResult, ...], tolerance: float) -> Verdict:
+    """Whether the advice meets the tolerance everywhere, what broke it, and the cheapest adequate level."""
+    advised = [r for r in results if r.set.label == "advised"]
+    broken = tuple((r.scene, q, float(r.errors[q])) for r in advised for q in QUANTITIES
+                   if not r.failed and r.errors[q] > tolerance) + tuple(
+        (r.scene, "failed: " + r.reason, float("inf")) for r in advised if r.failed)
+    cheapest = next((lv for lv, terms in LEVEL_SETS.items()
+                     if all(r.meets(tolerance) for r in results if r.set.terms == terms)), None)
+    level = a.advice.level
+    if broken:
+        verdict = "unsafe"
+        text = (f"the advice FAILED: level {a.advice.level} misses the tolerance {tolerance:g} in "
+                + "; ".join(f"{s}: {q} error {e:.3g}" for s, q, e in broken)
+                + (f"; the cheapest adequate canonical set is {cheapest}" if cheapest else ""))
+    elif cheapest is not None and list(LEVEL_SETS).index(cheapest) < list(LEVEL_SETS).index(level):
+        verdict = "conservative"
+        text = (f"the advice holds; it is conservative: level {cheapest} already meets the tolerance "
+                f"{tolerance:g} in every scene")
+    else:
+        verdict = "agree"
+        text = f"the advice holds: level {a.advice.level} meets the tolerance {tolerance:g} in every scene"
+    return Verdict(verdict, a.advice.level, cheapest, broken, text)

@@ -1,0 +1,198 @@
+"""Scenes: the least that shows an effect, with defaults from the body and the analysis (theory section 10, docs/scenes.md).
+
+Every scene is a free body started from a state, possibly driven by a
+torque or by a prescribed rotation, for a duration long enough for its
+effect (at least a few periods of the first mode and of the rotation).
+Speeds are in rad per body time unit, durations in body time units.
+"""
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..analysis import Analysis
+from ..errors import FFRFError
+from ..sim.integrate import Loads
+from ..units import TIME
+
+SCENES = ("free-spin", "spin-up", "torque-pulse", "minor-axis")
+SIGN_SEARCH = 12  # modes whose signs are searched exhaustively for the worst pattern (4096 patterns)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A scene: start state, drive, modal damping ratio and duration; ``axis`` is 0-based."""
+
+    name: str
+    axis: int
+    duration: float
+    omega0: np.ndarray
+    q0: np.ndarray
+    qd0: np.ndarray
+    loads: Loads = field(default_factory=Loads)
+    damping: float = 0.0
+    speed: float = 0.0
+    text: str = ""
+
+    @property
+    def label(self) -> str:
+        return f"{self.name} (axis {self.axis + 1})"
+
+    @property
+    def prescribed(self) -> bool:
+        return self.loads.prescribed is not None
+
+
+@dataclass(frozen=True)
+class SceneOptions:
+    """Settable parameters (None: derived from the body and the analysis). Speeds in rad/s, times in s."""
+
+    axis: int | None = None         # 1-based principal axis
+    speed: float | None = None      # the spin; default w_op, else a tenth of the smallest s_crit
+    duration: float | None = None
+    ramp: float | None = None       # spin-up time T
+    pulse: float | None = None      # torque-pulse duration
+    damping: float | None = None    # minor-axis modal damping ratio (0.02)
+
+
+def _first_period(a: Analysis) -> float:
+    return 1.0 / float(a.body.frequencies_hz[0])
+
+
+def default_speed(a: Analysis) -> float:
+    """w_op (body units) when given and positive, else a tenth of the smallest s_crit, else 2 pi f1 / 10."""
+    per_s = float(TIME[a.body.units.time])
+    w_op = a.options.situation.w_op
+    if w_op:
+        return w_op * per_s
+    s_crit = a.significance.s_crit
+    if s_crit is not None and np.isfinite(s_crit).any():
+        return 0.1 * float(np.min(s_crit))
+    return 0.2 * np.pi * float(a.body.frequencies_hz[0])
+
+
+def stable_axes(a: Analysis) -> tuple[int, int]:
+    """(major, minor) principal axes: rigid spin about them is stable without dissipation."""
+    I = np.diag(a.body.I0)
+    return int(np.argmax(I)), int(np.argmin(I))
+
+
+def deformation_axis(a: Analysis) -> int:
+    """Of the two stable axes, the one about which the inertia measures (dI_L, dI_Q, dI_fT) are largest."""
+    sig = a.significance
+    total = np.zeros(3)
+    for m in (sig.dI_L, sig.dI_Q, sig.dI_fT):
+        if m is not None:
+            total += m.max(axis=1)
+    major, minor = stable_axes(a)
+    return major if total[major] >= total[minor] else minor
+
+
+def worst_signs(a: Analysis, q: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """q with the sign pattern of its first 12 modes that maximises the deformation-dependent Coriolis
+    torque at spin w with the modes vibrating (the worst pattern of theory section 7)."""
+    from ..significance import coriolis_terms
+    body = a.body
+    if body.integrals.Sbar is None:
+        return q
+    k = min(SIGN_SEARCH, body.nf)
+    best, best_q = -1.0, q
+    om = np.sqrt(body.eigenvalues)
+    for signs in itertools.product((1.0, -1.0), repeat=k - 1):  # the first sign is free: the torque is even
+        trial = q.copy()
+        trial[1:k] *= signs
+        torque = np.linalg.norm(coriolis_terms(body, trial, om * trial, w)[0])
+        if torque > best:
+            best, best_q = torque, trial
+    return best_q
+
+
+def _seconds(a: Analysis, value: float | None) -> float | None:
+    return None if value is None else value / float(TIME[a.body.units.time])
+
+
+def _axis(a: Analysis, opts: SceneOptions, default: int) -> int:
+    if opts.axis is None:
+        return default
+    if opts.axis not in (1, 2, 3):
+        raise FFRFError(f"--axis {opts.axis}: expected a principal axis 1, 2 or 3")
+    return opts.axis - 1
+
+
+def free_spin(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
+    """Spin about a principal axis, modes initially at q_max in the worst sign pattern."""
+    k = _axis(a, opts, deformation_axis(a))
+    s = opts.speed * TIME[a.body.units.time] if opts.speed is not None else default_speed(a)
+    w = s * np.eye(3)[k]
+    q0 = worst_signs(a, np.array(a.amplitudes.q_max), w)
+    T = _seconds(a, opts.duration) or min(max(5 * _first_period(a), 3 * 2 * np.pi / s), 50 * _first_period(a))
+    return Scene("free-spin", k, T, w, q0, np.zeros(a.body.nf), speed=s,
+                 text="free spin, modes at q_max (worst sign pattern)")
+
+
+def spin_profile(W: float, T: float):
+    """w(t) = (W/T)(t - (T/2 pi) sin(2 pi t/T)) for t < T, then W; and its derivative (theory section 10)."""
+    def profile(t: float) -> tuple[float, float]:
+        if t >= T:
+            return W, 0.0
+        return (W / T) * (t - T / (2 * np.pi) * np.sin(2 * np.pi * t / T)), (W / T) * (1 - np.cos(2 * np.pi * t / T))
+    return profile
+
+
+def spin_up(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
+    """Rotation prescribed about a body axis from rest to the speed over the ramp time, then held."""
+    k = _axis(a, opts, deformation_axis(a))
+    s = opts.speed * TIME[a.body.units.time] if opts.speed is not None else default_speed(a)
+    ramp = _seconds(a, opts.ramp) or 10 * _first_period(a)
+    profile = spin_profile(s, ramp)
+    e = np.eye(3)[k]
+
+    def prescribed(t):
+        w, wd = profile(t)
+        return w * e, wd * e
+
+    T = _seconds(a, opts.duration) or ramp + 5 * _first_period(a)
+    nf = a.body.nf
+    return Scene("spin-up", k, T, np.zeros(3), np.zeros(nf), np.zeros(nf), Loads(prescribed=prescribed), speed=s,
+                 text=f"prescribed spin-up to {s:.4g} rad/time in {ramp:.4g} time units")
+
+
+def torque_pulse(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
+    """At rest, a sin^2 torque pulse about a principal axis that leaves the body spinning at the speed."""
+    k = _axis(a, opts, deformation_axis(a))
+    s = opts.speed * TIME[a.body.units.time] if opts.speed is not None else default_speed(a)
+    tp = _seconds(a, opts.pulse) or 0.5 * _first_period(a)
+    tau0 = 2 * a.body.I0[k, k] * s / tp  # integral of tau0 sin^2(pi t / tp) over tp = tau0 tp / 2
+    e = np.eye(3)[k]
+
+    def torque(t):
+        return tau0 * np.sin(np.pi * t / tp) ** 2 * e if t < tp else 0.0 * e
+
+    T = _seconds(a, opts.duration) or tp + 5 * _first_period(a)
+    nf = a.body.nf
+    return Scene("torque-pulse", k, T, np.zeros(3), np.zeros(nf), np.zeros(nf), Loads(torque=torque), speed=s,
+                 text=f"torque pulse of {tp:.3g} time units to {s:.4g} rad/time")
+
+
+def minor_axis(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
+    """Spin about the minor axis with a 1 % wobble and modal damping: dissipation drives it to the major axis."""
+    _, minor = stable_axes(a)
+    k = _axis(a, opts, minor)
+    s = opts.speed * TIME[a.body.units.time] if opts.speed is not None else default_speed(a)
+    w = s * np.eye(3)[k] + 0.01 * s * np.eye(3)[(k + 1) % 3]
+    T = _seconds(a, opts.duration) or min(20 * 2 * np.pi / s, 200 * _first_period(a))
+    nf = a.body.nf
+    zeta = 0.02 if opts.damping is None else opts.damping
+    return Scene("minor-axis", k, T, w, np.zeros(nf), np.zeros(nf), damping=zeta, speed=s,
+                 text=f"spin about the minor axis with a 1 % wobble, modal damping {zeta:g}")
+
+
+BUILDERS = {"free-spin": free_spin, "spin-up": spin_up, "torque-pulse": torque_pulse, "minor-axis": minor_axis}
+
+
+def make_scene(name: str, a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
+    if name not in BUILDERS:
+        raise FFRFError(f"--scene {name!r}: expected one of {', '.join(SCENES)}")
+    return BUILDERS[name](a, opts)

@@ -137,10 +137,36 @@ def test_verify_command_on_a_small_body_writes_json_and_figures(tmp_path):
     data = json.loads(r.stdout)
     jsonschema.validate(data, json.loads((ROOT / "docs" / "verify-schema.json").read_text()))
     assert [s["name"] for s in data["scenes"]] == ["free-spin", "torque-pulse"]
-    for stem in ("work_precision", "drift", "campbell", "trajectories_free-spin"):
+    for stem in ("work_precision", "drift", "stability", "campbell", "trajectories_free-spin"):
         for suffix in ("png", "svg"):
             assert (out / f"{stem}.{suffix}").stat().st_size > 1000
     assert (out / "work_precision.png").read_bytes()[:4] == b"\x89PNG"
     bad = subprocess.run([sys.executable, "-m", "ffrf_advisor", "verify", str(path), "--scene", "moonwalk"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "--scene" in bad.stderr
+
+
+# ---------------------------------------------------------------- sweeps
+@pytest.mark.slow
+def test_a_sweep_on_a_dask_cluster_gives_the_errors_of_the_local_run(tmp_path):
+    """Two rows (a small bar at two speeds): serial, on two local processes and on a distributed.LocalCluster;
+    the errors agree to round-off (the same code on the same machine; 1e-12 allows other thread timing)."""
+    from distributed import LocalCluster
+
+    from ffrf_advisor.verify.sweep import Task, run_sweep
+    body = modal_body(box_mesh([300.0, 20.0, 10.0], [6, 1, 1], "hexahedron20"), STEEL, 4, name="bar")
+    path = tmp_path / "bar.ffrf.h5"
+    write_body(body, path)
+    tasks = [Task(str(path), s, s / 1000.0, ("free-spin", "torque-pulse")) for s in (100.0, 300.0)]
+    serial = run_sweep(tasks)
+    local = run_sweep(tasks, jobs=2)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        dask = run_sweep(tasks, scheduler=cluster.scheduler_address)
+    for rows in (local, dask):
+        for a, b in zip(serial, rows):
+            assert a["verdict"] == b["verdict"] and a["advised_terms"] == b["advised_terms"]
+            for label, scenes in a["errors"].items():
+                for scene, errs in scenes.items():
+                    for k, e in errs.items():
+                        other = b["errors"][label][scene][k]
+                        assert (e is None and other is None) or abs(e - other) <= 1e-12 * max(1.0, abs(e))

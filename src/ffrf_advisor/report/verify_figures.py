@@ -112,3 +112,35 @@ def campbell_chart(speeds, by_axis: dict, s_crit, freq_unit: str, speed_unit: st
     unique = dict(zip(labels, handles))
     axes[0].legend(unique.values(), unique.keys(), fontsize=7)
     return fig
+
+
+def stability_chart(stab: dict, time_unit: str, title: str):
+    """Left: energy drift against the RK4 step (full set and level II). Right: each stability number measured
+    by simulation over its prediction (1 = theory confirmed)."""
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+    for label, rows in stab["drift_against_step"].items():
+        steps = [r["step"] for r in rows]
+        left.plot(steps, [max(r["energy_drift"] or 0.0, 1e-17) for r in rows], marker="o", label=label)
+    left.set_xscale("log")
+    left.set_yscale("log")
+    left.set_xlabel(f"RK4 step [{time_unit}]")
+    left.set_ylabel("energy drift |E - E0| / |E0| [-]")
+    left.legend(fontsize=7)
+    names, ratios = [], []
+    for key, label in (("rk4_limit_rest", "RK4 limit at rest"), ("rk4_limit_spin", "RK4 limit spinning"),
+                       ("euler_growth", "Euler growth / step")):
+        names.append(label)
+        ratios.append(stab[key].measured / stab[key].predicted)
+    onset = stab["divergence_onset"]
+    if onset is not None:
+        names.append("divergence speed / s_crit")
+        ratios.append(onset.measured / onset.s_crit)
+    imp = stab["implicit"]
+    if np.isfinite(imp.phase_error) and imp.predicted > 0:
+        names.append("midpoint phase error")
+        ratios.append(imp.phase_error / imp.predicted)
+    right.barh(names, ratios, color="C0")
+    right.axvline(1.0, color="k", lw=1)
+    right.set_xlabel("measured / predicted [-]")
+    fig.suptitle(title)
+    return fig

@@ -93,12 +93,13 @@ def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str
                             tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)
     stab = stability_studies(a, first)
     camp = campbell_data(a, default_speed(a))
-    figures = () if directory is None else write_figures(a, ver, points, camp, first, Path(directory))
+    figures = () if directory is None else write_figures(a, ver, points, camp, stab, first, Path(directory))
     return Study(a, ver, points, stab, camp, figures)
 
 
-def write_figures(a: Analysis, ver: Verification, points, camp: dict, scene: Scene, directory: Path) -> tuple[str, ...]:
-    """trajectories_<scene>, work_precision, drift and campbell, each as PNG and SVG."""
+def write_figures(a: Analysis, ver: Verification, points, camp: dict, stab: dict, scene: Scene,
+                  directory: Path) -> tuple[str, ...]:
+    """trajectories_<scene>, work_precision, drift, stability and campbell, each as PNG and SVG."""
     directory.mkdir(parents=True, exist_ok=True)
     unit = a.body.units.time
     paths = []
@@ -112,6 +113,8 @@ def write_figures(a: Analysis, ver: Verification, points, camp: dict, scene: Sce
                       directory, "work_precision")
     paths += fig.save(fig.drift_chart(drift_curves(a, scene), unit, f"{a.body.name}: {scene.label}, energy drift"),
                       directory, "drift")
+    paths += fig.save(fig.stability_chart(stab, unit, f"{a.body.name}: stability where methods fail"), directory,
+                      "stability")
     paths += fig.save(fig.campbell_chart(camp["speeds"], camp["by_axis"], camp["s_crit"], unit, unit), directory,
                       "campbell")
     return tuple(str(p) for p in paths)

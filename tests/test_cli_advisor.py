@@ -6,6 +6,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import jsonschema
+import pytest
 from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
@@ -79,3 +80,24 @@ def test_gate_exit_codes_and_junit(tmp_path):
     assert [b["level"] for b in data["bodies"]] == ["III", None]
     assert runner.invoke(app, ["gate", str(SAMPLE), "--max-level", "V"]).exit_code == 2
     assert runner.invoke(app, ["gate", str(SAMPLE)]).exit_code == 2  # usage: --max-level missing
+
+
+BAD_OPTIONS = [["--threshold", "dI_L=nan"], ["--threshold", "dI_Q=-1"], ["--threshold", "dI_fT=inf"],
+               ["--sigma-allow", "nan"], ["--sigma-allow", "0"], ["--q-cap", "-1"], ["--n-ratio", "0"],
+               ["--f-sys", "inf"], ["--deflection-cap", "nan"]]
+CASES = [("analyze", a) for a in BAD_OPTIONS] + [("gate", a) for a in BAD_OPTIONS if a[0] in ("--threshold", "--f-sys")]
+
+
+@pytest.mark.parametrize("command, args", CASES)
+def test_nan_negative_or_infinite_options_are_rejected_in_one_line(command, args):
+    extra = ["--max-level", "IV"] if command == "gate" else []
+    result = runner.invoke(app, [command, str(SAMPLE), *extra, *args])
+    assert result.exit_code == 2 and ("expected a finite" in result.output or "whole number" in result.output)
+    assert len(result.output.strip().splitlines()) == 1
+
+
+def test_a_nan_threshold_in_a_config_file_is_rejected(tmp_path):
+    cfg = tmp_path / "ffrf-advisor.toml"
+    cfg.write_text("[thresholds]\ndI_L = nan\n")
+    result = runner.invoke(app, ["analyze", str(SAMPLE), "--config", str(cfg)])
+    assert result.exit_code == 2 and "thresholds.dI_L" in result.output and "finite" in result.output

@@ -77,8 +77,8 @@ def test_a_broken_advice_is_called_unsafe(beam):
 
 # ---------------------------------------------------------------- stability where methods fail
 def test_rk4_limit_by_bisection_matches_the_prediction_at_rest_and_spinning(beam):
-    rest = stability.rk4_limit(beam)
-    spin = stability.rk4_limit(beam, 300.0, 1)
+    rest = stability.rk4_step_limit(beam)
+    spin = stability.rk4_step_limit(beam, 300.0, 1)
     assert abs(rest.ratio - 1) < 0.02 and abs(spin.ratio - 1) < 0.02
     assert rest.predicted == pytest.approx(2 * np.sqrt(2) / np.sqrt(beam.body.eigenvalues.max()), rel=1e-9)
 

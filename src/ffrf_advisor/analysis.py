@@ -3,9 +3,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import math
+
 from .amplitudes import AmplitudeOptions, Amplitudes, q_max
 from .body import FlexibleBody
-from .guidelines import Advice, Situation, advise
+from .errors import FFRFError
+from .guidelines import Advice, Situation, advise, check_thresholds
 from .significance import Significance, significance
 
 
@@ -25,7 +28,32 @@ class Analysis:
     advice: Advice
 
 
+def _number(name: str, value, positive: bool) -> None:
+    """``value`` must be a finite number, positive (or non-negative): one line naming the option otherwise."""
+    ok = isinstance(value, (int, float)) and math.isfinite(value) and (value > 0 if positive else value >= 0)
+    if not ok:
+        raise FFRFError(f"{name} {value!r}: expected a finite {'positive' if positive else 'non-negative'} number")
+
+
+def check_options(options: Options) -> None:
+    """Every analysis option finite and in range (theory section 8): NaN or inf would switch rules off."""
+    amp, sit = options.amplitudes, options.situation
+    _number("--sigma-allow", amp.sigma_allow, True)
+    _number("--q-cap", amp.q_cap, True)
+    if amp.deflection_cap is not None:
+        _number("--deflection-cap", amp.deflection_cap, True)
+    if sit.w_op is not None:
+        _number("--speed", sit.w_op, False)
+    if sit.f_sys is not None:
+        _number("--f-sys", sit.f_sys, True)
+    if options.n_ratio is not None and (not isinstance(options.n_ratio, int) or options.n_ratio < 1):
+        raise FFRFError(f"--n-ratio {options.n_ratio!r}: expected a whole number >= 1")
+    check_thresholds(sit.thresholds, "--threshold")
+
+
 def analyze(body: FlexibleBody, options: Options = Options()) -> Analysis:
+    """q_max, significance and advice of ``body`` with checked ``options`` (theory sections 6-8)."""
+    check_options(options)
     amp = q_max(body, options.amplitudes)
     sig = significance(body, amp.q_max, options.n_ratio)
     return Analysis(body, options, amp, sig, advise(body, amp, sig, options.situation))

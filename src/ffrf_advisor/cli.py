@@ -12,7 +12,7 @@ from rich.console import Console
 
 from . import __version__
 from .amplitudes import AmplitudeOptions
-from .analysis import Options, analyze as run_analysis
+from .analysis import Options, analyze as run_analysis, check_options
 from .checks import run_checks
 from .errors import FFRFError
 from .gate import run_gate, write_junit
@@ -140,7 +140,9 @@ def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_
     situation = Situation(w_op=None if speed is None else parse_speed(speed), f_sys=pick(f_sys, "f_sys"),
                           connection=pick(connection, "connection", "free"), widening=widening,
                           thresholds=_thresholds(threshold, cfg.get("thresholds", {})))
-    return Options(amp, situation, pick(n_ratio, "n_ratio"))
+    options = Options(amp, situation, pick(n_ratio, "n_ratio"))
+    check_options(options)
+    return options
 
 
 @app.command()

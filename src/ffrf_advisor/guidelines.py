@@ -128,10 +128,16 @@ def _validated(cfg: dict, path: Path) -> dict:
     bad = set(thresholds) - set(THRESHOLDS)
     if bad:
         raise FFRFError(f"{path}: config thresholds: unknown {sorted(bad)}; expected {sorted(THRESHOLDS)}")
-    for key, value in thresholds.items():
-        if not isinstance(value, (int, float)) or value < 0:
-            raise FFRFError(f"{path}: config thresholds.{key}: expected a non-negative number, got {value!r}")
+    check_thresholds(thresholds, f"{path}: config thresholds.")
     return cfg
+
+
+def check_thresholds(thresholds: dict, source: str) -> None:
+    """Every threshold a finite non-negative number (a NaN threshold would switch its rule off)."""
+    for key, value in thresholds.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+            raise FFRFError(f"{source}{'' if source.endswith('.') else ' '}{key}: expected a finite non-negative "
+                            f"number, got {value!r}")
 
 
 # ------------------------------------------------------------------ rules

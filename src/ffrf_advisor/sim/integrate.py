@@ -27,6 +27,11 @@ NEWTON_TOL = 1e-12   # relative size of the last Newton correction of the implic
 NEWTON_MAX = 20
 
 
+def rk4_limit(eigenvalues) -> float:
+    """``2 sqrt 2 / Omega_max``: the largest stable explicit RK4 step on undamped modes (theory section 10)."""
+    return 2 * np.sqrt(2) / float(np.sqrt(np.abs(np.asarray(eigenvalues)).max()))
+
+
 @dataclass(frozen=True)
 class Loads:
     """External torque (body frame) and modal forces as functions of time; ``prescribed`` gives (w, w')."""

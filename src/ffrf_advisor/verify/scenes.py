@@ -62,15 +62,18 @@ def _first_period(a: Analysis) -> float:
 
 
 def default_speed(a: Analysis) -> float:
-    """w_op (body units) when given and positive, else a tenth of the smallest s_crit, else 2 pi f1 / 10."""
+    """The scenes' spin (body units): w_op when positive; at w_op = 0 a small spin, a hundredth of the
+    smallest s_crit (the body is at rest but for what a torque pulse gives it); without w_op a tenth of it;
+    2 pi f1 / 10 (or / 100) when the body has no finite s_crit."""
     per_s = float(TIME[a.body.units.time])
     w_op = a.options.situation.w_op
     if w_op:
         return w_op * per_s
+    share = 0.01 if w_op == 0 else 0.1
     s_crit = a.significance.s_crit
     if s_crit is not None and np.isfinite(s_crit).any():
-        return 0.1 * float(np.min(s_crit))
-    return 0.2 * np.pi * float(a.body.frequencies_hz[0])
+        return share * float(np.min(s_crit))
+    return share * 2 * np.pi * float(a.body.frequencies_hz[0])
 
 
 def stable_axes(a: Analysis) -> tuple[int, int]:

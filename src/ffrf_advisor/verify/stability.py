@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..analysis import Analysis
-from ..sim.integrate import Loads, Rhs, integrate
+from ..sim.integrate import Loads, Rhs, integrate, rk4_limit
 from ..sim.linearise import linearise, static_deflection
 from ..sim.model import build_model, initial_state
 from ..sim.output import summary
@@ -48,7 +48,7 @@ def _bisect(stable, lo: float, hi: float, times: int = BISECTIONS) -> float:
     return lo
 
 
-def rk4_limit(a: Analysis, speed: float = 0.0, axis: int = 0) -> Limit:
+def rk4_step_limit(a: Analysis, speed: float = 0.0, axis: int = 0) -> Limit:
     """Largest stable RK4 step by bisection, free spin at ``speed`` about ``axis`` with the highest mode kicked,
     against the prediction from the eigenvalues of the linearisation there (2 sqrt 2 / Omega_max at rest)."""
     model = build_model(a.body, FULL)
@@ -70,7 +70,7 @@ def euler_growth(a: Analysis, step_fraction: float = 0.1, steps: int = 50) -> Li
     """Explicit Euler on the highest mode at rest: measured growth per step against sqrt(1 + (h Omega)^2) > 1."""
     model = build_model(a.body, LEVEL_SETS["I"])
     om = float(np.sqrt(np.abs(a.body.eigenvalues).max()))
-    h = step_fraction * 2 * np.sqrt(2) / om
+    h = step_fraction * rk4_limit(a.body.eigenvalues)
     f = Rhs(model)
     y = initial_state(model, (0, 0, 0), np.eye(a.body.nf)[-1])
     energy0 = 0.5 * om**2
@@ -121,7 +121,7 @@ def drift_against_step(a: Analysis, scene, steps_fraction=(0.8, 0.4, 0.2, 0.1)) 
     """Energy drift of the full set and of level II in a scene against the RK4 step: the full set's drift
     falls with the step (integrator error), level II's does not (its work balance is incomplete)."""
     from .runner import run_scene
-    limit = 2 * np.sqrt(2) / float(np.sqrt(np.abs(a.body.eigenvalues).max()))
+    limit = rk4_limit(a.body.eigenvalues)
     out = {}
     for label, terms in (("IV (full)", FULL), ("II", LEVEL_SETS["II"])):
         model = build_model(a.body, terms, scene.damping)
@@ -148,7 +148,7 @@ def implicit_stability(a: Analysis, factor: float = 5.0, periods: float = 3.0) -
     stays bounded, and the first mode's phase error matches the midpoint rule's frequency error."""
     model = build_model(a.body, LEVEL_SETS["I"])
     om = np.sqrt(np.abs(a.body.eigenvalues))
-    h = factor * 2 * np.sqrt(2) / float(om.max())
+    h = factor * rk4_limit(a.body.eigenvalues)
     n = max(1, int(round(periods * 2 * np.pi / float(om[0]) / h)))
     q0 = np.zeros(a.body.nf)
     q0[[0, -1]] = 1.0

@@ -72,8 +72,8 @@ def stability_studies(a: Analysis, scene: Scene) -> dict:
     speed = default_speed(a)
     axis = int(np.argmax(np.diag(a.body.I0)))
     return {
-        "rk4_limit_rest": stability.rk4_limit(a),
-        "rk4_limit_spin": stability.rk4_limit(a, speed, axis),
+        "rk4_limit_rest": stability.rk4_step_limit(a),
+        "rk4_limit_spin": stability.rk4_step_limit(a, speed, axis),
         "spin": {"speed": speed, "axis": axis + 1},
         "euler_growth": stability.euler_growth(a),
         "divergence_onset": stability.divergence_onset(a),

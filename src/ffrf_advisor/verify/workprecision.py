@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..analysis import Analysis
+from ..sim.integrate import rk4_limit
 from ..sim.model import build_model
 from .measures import worst
 from .runner import Reference, TermSet, run_scene, scene_errors
@@ -36,15 +37,10 @@ class Point:
     failed: bool
 
 
-def rk4_limit(a: Analysis) -> float:
-    """2 sqrt 2 / Omega_max: the explicit RK4 limit of the undamped modes at zero spin (theory section 10)."""
-    return 2 * np.sqrt(2) / float(np.sqrt(np.abs(a.body.eigenvalues).max()))
-
-
 def work_precision(a: Analysis, scene: Scene, ref: Reference, sets: tuple[TermSet, ...],
                    repeats: int = 1) -> list[Point]:
     """The work-precision points of ``sets`` in ``scene``."""
-    limit = rk4_limit(a)
+    limit = rk4_limit(a.body.eigenvalues)
     runs = ([("dop853", r, None) for r in RTOLS] + [("rk4", f * limit, f * limit) for f in RK4_STEPS]
             + [("midpoint", f * limit, f * limit) for f in MIDPOINT_STEPS])
     points = []

@@ -161,3 +161,19 @@ def test_broken_files_give_one_line_errors_naming_the_key(tmp_path, beam, key, m
     assert key in str(info.value)
     cli = runner.invoke(app, ["info", str(path)])
     assert cli.exit_code == 2 and key in cli.output and len(cli.output.strip().splitlines()) == 1
+
+
+def test_gate_shows_that_a_pass_was_decided_without_measures(tmp_path, beam):
+    """An invariants file without I9 and I5 passes --max-level II, and its text and JUnit say why it may be
+    too low (issue 12)."""
+    import xml.etree.ElementTree as ET
+    doc = document(beam)
+    del doc["I9"], doc["I5"]
+    partial = _write(tmp_path / "partial.ffinv.json", doc)
+    junit = tmp_path / "gate.xml"
+    result = runner.invoke(app, ["gate", str(partial), "--max-level", "II", "--junit", str(junit)],
+                           env={"COLUMNS": "200"})
+    assert result.exit_code == 0 and "ok" in result.output
+    assert "warning: decided without dI_Q" in result.output
+    case = ET.parse(junit).getroot().find("testcase")
+    assert case.find("failure") is None and "decided without dI_Q" in case.find("system-out").text

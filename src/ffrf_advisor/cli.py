@@ -184,7 +184,10 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
     else:
         for r in results:
             status = "ERROR" if r["error"] else ("ok" if r["within"] else "EXCEEDS")
-            out.print(f"{status:8s} {r['file']}: " + (r["error"] or f"level {r['level']} (max {max_level})"))
+            out.print(f"{status:8s} {r['file']}: " + (r["error"] or f"level {r['level']} (max {max_level})"),
+                      highlight=False)
+            for w in r["warnings"]:
+                out.print(f"{'':8s} warning: {w}", highlight=False)
     if any(r["error"] for r in results):
         raise typer.Exit(EXIT_BAD_INPUT)
     if not all(r["within"] for r in results):

@@ -22,10 +22,12 @@ def gate_one(path: str, options: Options, max_level: str) -> dict:
     try:
         result = analysis_json(analyze(read_body(path, load_fe=True), options), path)
     except FFRFError as e:
-        return {"file": path, "level": None, "within": False, "error": str(e), "evidence": [], "analysis": None}
+        return {"file": path, "level": None, "within": False, "error": str(e), "evidence": [], "warnings": [],
+                "analysis": None}
     evidence = [f"rule {r['rule']} {r['name']}: {r['reason']}" for r in result["rules"]
                 if r["fired"] and r["rule"] != "I"]
-    return {"file": path, "level": result["level"], "error": None, "evidence": evidence, "analysis": result,
+    return {"file": path, "level": result["level"], "error": None, "evidence": evidence,
+            "warnings": list(result["warnings"]), "analysis": result,
             "within": LEVELS.index(result["level"]) <= LEVELS.index(max_level)}
 
 
@@ -47,7 +49,8 @@ def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, cons
 
 
 def write_junit(results: list[dict], max_level: str, path: Path) -> None:
-    """JUnit XML: one test case per body; failure text is the deciding evidence."""
+    """JUnit XML: one test case per body; failure text is the deciding evidence; every warning of the body
+    goes to the case's system-out (and into the failure text), so a pass decided without some measure says so."""
     suite = ET.Element("testsuite", name="ffrf-advisor gate", tests=str(len(results)),
                        failures=str(sum(1 for r in results if not r["error"] and not r["within"])),
                        errors=str(sum(1 for r in results if r["error"])))
@@ -57,5 +60,7 @@ def write_junit(results: list[dict], max_level: str, path: Path) -> None:
             ET.SubElement(case, "error", message=r["error"]).text = r["error"]
         elif not r["within"]:
             failure = ET.SubElement(case, "failure", message=f"level {r['level']} exceeds {max_level}")
-            failure.text = "\n".join(r["evidence"])
+            failure.text = "\n".join(r["evidence"] + [f"warning: {w}" for w in r["warnings"]])
+        if r["warnings"]:
+            ET.SubElement(case, "system-out").text = "\n".join(f"warning: {w}" for w in r["warnings"])
     ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)

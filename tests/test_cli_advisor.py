@@ -101,3 +101,29 @@ def test_a_nan_threshold_in_a_config_file_is_rejected(tmp_path):
     cfg.write_text("[thresholds]\ndI_L = nan\n")
     result = runner.invoke(app, ["analyze", str(SAMPLE), "--config", str(cfg)])
     assert result.exit_code == 2 and "thresholds.dI_L" in result.output and "finite" in result.output
+
+
+def test_an_assumption_failure_is_a_warning_in_analyze_json_and_in_gate_junit(tmp_path):
+    """Modes scaled by 1.01 are not mass-normalised (theory section 1, assumption 3): every command that
+    analyses the body says so (issue 12)."""
+    import xml.etree.ElementTree as ET
+    from dataclasses import replace as dc_replace
+
+    from ffrf_advisor.invariants import shape_integrals
+    from ffrf_advisor.io import read_body, write_body
+    body = read_body(SAMPLE, load_fe=True)
+    Phi = body.fe.Phi * 1.01
+    bad = dc_replace(body, integrals=shape_integrals(body.fe.mesh.points, body.fe.Ms, Phi),
+                     fe=dc_replace(body.fe, Phi=Phi))
+    path = tmp_path / "unnormalised.ffrf.h5"
+    write_body(bad, path)
+    result = runner.invoke(app, ["analyze", str(path), "--json"])
+    data = json.loads(result.output)
+    failed = [c["name"] for c in data["checks"] if not c["passed"]]
+    assert "mass_normalisation" in failed and any("mass_normalisation failed" in w for w in data["warnings"])
+    junit = tmp_path / "gate.xml"
+    gate = runner.invoke(app, ["gate", str(path), "--max-level", "IV", "--junit", str(junit)])
+    assert gate.exit_code == 0
+    assert "mass_normalisation failed" in ET.parse(junit).getroot().find("testcase").find("system-out").text
+    good = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--json"]).output)
+    assert all(c["passed"] for c in good["checks"]) and not any("check" in w for w in good["warnings"])

@@ -1,12 +1,13 @@
 """One advisor run: body -> q_max -> significance -> advice (theory sections 6-8)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import math
 
 from .amplitudes import AmplitudeOptions, Amplitudes, q_max
 from .body import FlexibleBody
+from .checks import Check, check_warnings, run_checks
 from .errors import FFRFError
 from .guidelines import Advice, Situation, advise, check_thresholds
 from .significance import Significance, significance
@@ -26,6 +27,7 @@ class Analysis:
     amplitudes: Amplitudes
     significance: Significance
     advice: Advice
+    checks: tuple[Check, ...] = ()
 
 
 def _number(name: str, value, positive: bool) -> None:
@@ -56,4 +58,7 @@ def analyze(body: FlexibleBody, options: Options = Options()) -> Analysis:
     check_options(options)
     amp = q_max(body, options.amplitudes)
     sig = significance(body, amp.q_max, options.n_ratio)
-    return Analysis(body, options, amp, sig, advise(body, amp, sig, options.situation))
+    checks = tuple(run_checks(body))
+    advice = advise(body, amp, sig, options.situation)
+    advice = replace(advice, warnings=check_warnings(list(checks)) + advice.warnings)
+    return Analysis(body, options, amp, sig, advice, checks)

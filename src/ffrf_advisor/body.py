@@ -21,10 +21,13 @@ class Provenance:
     mass_matrix: str = "unknown"  # consistent | lumped | unknown
     method: str = "nodal sums with the scalar mass matrix (theory section 3)"
     notes: tuple[str, ...] = ()
+    digits: int | None = None  # significant decimal digits of the source's numbers; None: double precision
 
     def __post_init__(self):
         if self.mass_matrix not in MASS_KINDS:
             raise ValueError(f"mass_matrix must be one of {MASS_KINDS}, got {self.mass_matrix!r}")
+        if self.digits is not None and not 1 <= self.digits <= 17:
+            raise ValueError(f"digits must be 1 to 17 or None, got {self.digits!r}")
 
     def with_note(self, note: str) -> "Provenance":
         return replace(self, notes=(*self.notes, note))

@@ -32,24 +32,39 @@ ASSUMPTION = {
 }
 
 
+# Checks whose value is a sum of products of the source's numbers: limited by their precision.
+PRECISION_LIMITED = ("com_offset", "principal_axes", "mass_normalisation", "free_surface_translation",
+                     "free_surface_rotation")
+
+
 @dataclass(frozen=True)
 class Check:
-    """One check: its value, the tolerance, and whether it passed."""
+    """One check: its value, the tolerance, whether it passed, and the source precision assumed."""
 
     name: str
     value: float
     tolerance: float
     passed: bool
+    precision: str = "double"
 
     @property
     def assumption(self) -> str:
         return ASSUMPTION[self.name]
 
 
-def _check(name: str, value: float, tolerances: dict[str, float]) -> Check:
+def _check(name: str, value: float, tolerances: dict[str, float], precision: str) -> Check:
     tol = tolerances[name]
     passed = value > tol if name == "mass" else value <= tol
-    return Check(name, float(value), tol, bool(passed and np.isfinite(value)))
+    return Check(name, float(value), tol, bool(passed and np.isfinite(value)), precision)
+
+
+def source_tolerances(digits: int | None) -> dict[str, float]:
+    """Tolerances for data with ``digits`` significant digits: at least 10^(1 - digits) for the checks
+    PRECISION_LIMITED (a 6-digit .frd cannot show mass normalisation better than about 1e-5)."""
+    if digits is None:
+        return dict(TOLERANCES)
+    floor = 10.0 ** (1 - digits)
+    return {k: max(v, floor) if k in PRECISION_LIMITED else v for k, v in TOLERANCES.items()}
 
 
 def check_values(body: FlexibleBody) -> dict[str, float]:
@@ -74,6 +89,15 @@ def check_values(body: FlexibleBody) -> dict[str, float]:
 
 
 def run_checks(body: FlexibleBody, tolerances: dict[str, float] | None = None) -> list[Check]:
-    """All checks of theory section 4 against the documented (or given) tolerances."""
-    tol = {**TOLERANCES, **(tolerances or {})}
-    return [_check(name, value, tol) for name, value in check_values(body).items()]
+    """All checks of theory section 4 against the documented tolerances, widened to the precision of the
+    body's source data (provenance.digits), or the given ones."""
+    digits = body.provenance.digits
+    tol = {**source_tolerances(digits), **(tolerances or {})}
+    precision = "double" if digits is None else f"{digits} significant digits"
+    return [_check(name, value, tol, precision) for name, value in check_values(body).items()]
+
+
+def check_warnings(checks: list[Check]) -> tuple[str, ...]:
+    """One warning per failed check: what failed, by how much, and the precision assumed."""
+    return tuple(f"check {c.name} failed: {c.value:.3g} against {c.tolerance:.1e} ({c.assumption}; source data "
+                 f"assumed {c.precision}); results carry that caveat" for c in checks if not c.passed)

@@ -206,6 +206,9 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed:
         print(json.dumps(data, indent=1))
     else:
         out.print(comparison_table(data))
+        for body in data["bodies"]:
+            for w in body["warnings"]:
+                out.print(f"{body['name']}: warning: {w}", highlight=False)
 
 
 @app.command()
@@ -263,10 +266,13 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
         raise FFRFError(f"--solver {solver!r}: expected one of {', '.join(SOLVERS)}")
     options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config)
     result = run_analysis(_read(body, eigenvalues, density), options)
-    data = {"level": result.advice.level, "terms": list(result.advice.terms), **adams_settings(result.advice.terms)}
+    data = {"level": result.advice.level, "terms": list(result.advice.terms), **adams_settings(result.advice.terms),
+            "warnings": list(result.advice.warnings)}
     if as_json:
         print(json.dumps(data, indent=1))
         return
+    for w in data["warnings"]:
+        out.print(f"warning: {w}", highlight=False)
     out.print(f"level {data['level']}: terms {', '.join(data['terms'])}")
     out.print(f"Adams: [bold]{data['formulation']}[/bold]   INVARIANTS={data['invariants']}")
     out.print(f"  {data['statement']}")

@@ -33,6 +33,8 @@ ELEMENTS = {1: ("hexahedron", list(range(8))),
 RIGID_TOL = 1e-6  # |lambda| / largest |lambda| below which a mode is rigid
 N_RIGID = 6
 MAX_COUNT = 10**8  # sanity bound on block sizes from headers
+ASCII_DIGITS = 6     # E12.5 columns: 6 significant digits
+FLOAT32_DIGITS = 7   # binary result blocks are float32
 
 
 class _Frd:
@@ -48,6 +50,7 @@ class _Frd:
         self.results: dict[tuple[int, str], np.ndarray] = {}
         self.frequencies: dict[int, float] = {}
         self.mode = 0
+        self.digits = 17  # lowered by each result block to its precision
         self._parse()
 
     def fail(self, field: str, expected: str, got: str | None = None):
@@ -170,8 +173,10 @@ class _Frd:
         if fmt >= 2:
             rec = np.frombuffer(self._take(count * (4 + 4 * ncomp)), np.dtype([("id", "<i4"), ("v", "<f4", ncomp)]))
             ids, values = rec["id"].astype(np.int64), rec["v"].astype(float)
+            self.digits = min(self.digits, FLOAT32_DIGITS)
         else:
             ids, values = self._ascii_records(fmt, ncomp, name)
+            self.digits = min(self.digits, ASCII_DIGITS)
         self.frequencies[self.mode] = frequency
         self.results[(self.mode, name)] = (ids, values)
 
@@ -295,7 +300,8 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     Phi_n, stress, _ = mass_normalised_file_modes(Ms, Phi[:, :, flex], None if stress is None else stress[:, flex],
                                                  mesh.points)
     return fe_body(Path(path).name.split(".")[0], mesh, Ms, Phi_n, lam[flex],
-                   Provenance(source=str(path), mass_matrix="consistent", notes=tuple(notes)), K, stress)
+                   Provenance(source=str(path), mass_matrix="consistent", notes=tuple(notes), digits=frd.digits),
+                   K, stress)
 
 
 # ---------------------------------------------------------------- decks

@@ -56,7 +56,8 @@ def document(body: FlexibleBody, I8_sign: str = "adams") -> dict:
         "eigenvalues": body.eigenvalues,
         "frequencies_hz": body.frequencies_hz,
         "provenance": {"source": body.provenance.source, "tool": f"ffrf_advisor {__version__}",
-                       "fe_mass": body.provenance.mass_matrix, "notes": "\n".join(body.provenance.notes)},
+                       "fe_mass": body.provenance.mass_matrix, "notes": "\n".join(body.provenance.notes),
+                       **({} if body.provenance.digits is None else {"digits": body.provenance.digits})},
     }
     if body.sigma_max is not None:
         doc["max_von_mises"] = body.sigma_max
@@ -239,8 +240,13 @@ def _provenance(d: _Doc, path, inv: dict) -> Provenance:
         notes.append("no I9 in the file: W2 (quadratic inertia change, centrifugal softening) not evaluable"
                      + ("" if "I5" in inv else "; no I5 either: W3 (coupling, Coriolis ratio) not evaluable"))
     carried = ", ".join(k for k in ("I5", "I9") if k in inv) or "without I5, I9"
+    digits = prov.get("digits")
+    if digits is not None:
+        if isinstance(digits, bool) or not isinstance(digits, (int, np.integer)) or not 1 <= digits <= 17:
+            d.fail("provenance.digits", "a whole number of significant digits from 1 to 17", repr(digits))
+        digits = int(digits)
     return Provenance(source=str(prov.get("source") or path), mass_matrix=fe_mass,
-                      method=f"Adams-style invariants I1..I9 ({carried})", notes=tuple(notes))
+                      method=f"Adams-style invariants I1..I9 ({carried})", notes=tuple(notes), digits=digits)
 
 
 def body_from_document(path, doc: dict) -> FlexibleBody:

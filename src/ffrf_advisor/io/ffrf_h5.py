@@ -70,6 +70,8 @@ def write(body: FlexibleBody, path: str | os.PathLike, overwrite: bool = False,
             prov.attrs["mass_matrix"] = body.provenance.mass_matrix
             prov.attrs["method"] = body.provenance.method
             prov.attrs["notes"] = "\n".join(body.provenance.notes)
+            if body.provenance.digits is not None:
+                prov.attrs["digits"] = body.provenance.digits
             prov.attrs["written_by"] = f"ffrf_advisor {__version__}"
             modes = f.create_group("modes", track_order=True)
             _dataset(modes, "eigenvalues", body.eigenvalues)
@@ -175,7 +177,11 @@ def _provenance(r: _Reader, path) -> Provenance:
         r.fail("provenance@mass_matrix", f"one of {MASS_KINDS}", repr(kind))
     notes = tuple(n for n in get("notes").split("\n") if n)
     source = get("source") or str(path)
-    return Provenance(source=source, mass_matrix=kind, method=get("method") or Provenance.method, notes=notes)
+    digits = g.attrs.get("digits")
+    if digits is not None and not (np.ndim(digits) == 0 and float(digits).is_integer() and 1 <= digits <= 17):
+        r.fail("provenance@digits", "a whole number of significant digits from 1 to 17", repr(digits))
+    return Provenance(source=source, mass_matrix=kind, method=get("method") or Provenance.method, notes=notes,
+                      digits=None if digits is None else int(digits))
 
 
 def _mesh(r: _Reader) -> Mesh:

@@ -25,7 +25,7 @@ def comparison(analyses: list[Analysis], sources: list[str]) -> dict:
             "dI_Tf": None if sig.dI_Tf is None else json_number(sig.dI_Tf.max()),
             "norms": {k: m.frobenius for k, m in sig.magnitudes.items()},
             "coriolis_ratio": json_ratio(sig.coriolis), "centrifugal_ratio": json_ratio(sig.centrifugal),
-            "level": a.advice.level, "terms": list(a.advice.terms),
+            "level": a.advice.level, "terms": list(a.advice.terms), "warnings": list(a.advice.warnings),
         })
     return {"schema_version": SCHEMA_VERSION, "shown_modes": N_SHOWN, "bodies": bodies}
 

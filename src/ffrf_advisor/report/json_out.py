@@ -66,4 +66,6 @@ def analysis_json(a: Analysis, source: str) -> dict:
         "rules": [{"rule": r.rule, "name": r.name, "value": json_number(r.value), "threshold": json_number(r.threshold),
                    "fired": None if r.fired is None else bool(r.fired), "terms": list(r.terms), "reason": r.reason} for r in adv.rules],
         "warnings": list(adv.warnings),
+        "checks": [{"name": c.name, "value": json_number(c.value), "tolerance": c.tolerance, "passed": c.passed,
+                    "precision": c.precision} for c in a.checks],
     }

@@ -31,7 +31,7 @@ def save(fig, directory: Path, stem: str) -> list[Path]:
     return paths
 
 
-def trajectories(ref_run, runs: dict, sigma, time_unit: str, title: str):
+def trajectories(ref_run, runs: dict, sigma, time_unit: str, stress_unit: str, title: str):
     """Spin rate |w|, first modal coordinate and recovered stress of the reference and each set against time."""
     fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
     nf = (ref_run.y.shape[1] - N_ROT) // 2
@@ -46,7 +46,7 @@ def trajectories(ref_run, runs: dict, sigma, time_unit: str, title: str):
         axes[2].plot(run.t, np.abs(y[:, N_ROT:N_ROT + nf]) @ weights, label=label, **style)
     axes[0].set_ylabel(f"|w| [rad/{time_unit}]")
     axes[1].set_ylabel("q1 [body units]")
-    axes[2].set_ylabel("sum sigma_p |q_p|" + (" [stress]" if sigma is not None else " [q]"))
+    axes[2].set_ylabel("sum sigma_p |q_p|" + (f" [{stress_unit}]" if sigma is not None else " [body units]"))
     axes[2].set_xlabel(f"t [{time_unit}]")
     axes[0].set_title(title)
     axes[0].legend(fontsize=7, ncol=3)
@@ -117,7 +117,7 @@ def campbell_chart(speeds, by_axis: dict, s_crit, freq_unit: str, speed_unit: st
 def stability_chart(stab: dict, time_unit: str, title: str):
     """Left: energy drift against the RK4 step (full set and level II). Right: each stability number measured
     by simulation over its prediction (1 = theory confirmed)."""
-    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, (left, right) = plt.subplots(1, 2, figsize=(11, 4.2), layout="constrained")
     for label, rows in stab["drift_against_step"].items():
         steps = [r["step"] for r in rows]
         left.plot(steps, [max(r["energy_drift"] or 0.0, 1e-17) for r in rows], marker="o", label=label)

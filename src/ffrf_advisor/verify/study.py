@@ -107,7 +107,8 @@ def write_figures(a: Analysis, ver: Verification, points, camp: dict, stab: dict
         model_runs = {ts.label: run_scene(build_model(a.body, ts.terms, sc.damping), sc, ver.integrator)
                       for ts in term_sets(a)}
         paths += fig.save(fig.trajectories(ver.references[sc.label].run, model_runs, a.body.sigma_max, unit,
-                                           f"{a.body.name}: {sc.label}"), directory, f"trajectories_{sc.name}")
+                                           a.body.units.stress, f"{a.body.name}: {sc.label}"),
+                          directory, f"trajectories_{sc.name}")
     paths += fig.save(fig.work_precision_chart(points, pareto(points),
                                                f"{a.body.name}: {scene.label}, work-precision (timings serial)"),
                       directory, "work_precision")

@@ -1,6 +1,8 @@
 """Advisor (theory sections 6-9): rules on synthetic bodies, invariances, FE bodies."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -197,3 +199,49 @@ def test_softening_speeds_of_the_beam_are_its_bending_frequencies():
 def test_compact_block_is_level_I_at_moderate_speed(block_body):
     result = analyze(block_body, Options(situation=Situation(w_op=parse_speed("1000rpm"))))
     assert result.advice.level == "I"
+
+
+# ---------------------------------------------------------------- issue 12: sign-independent, same modes
+def _flipped(body, signs):
+    """The body with mode p multiplied by signs[p]: integrals transform exactly (Ibar by s, Sbar by s s^T)."""
+    from dataclasses import replace as dc_replace
+    ints = body.integrals
+    s = np.asarray(signs, float)
+    return dc_replace(body, integrals=dc_replace(ints, Ibar=ints.Ibar * s, mode_sum=ints.mode_sum * s,
+                                                 Sbar=ints.Sbar * np.outer(s, s)))
+
+
+def _decisions(a):
+    sig = a.significance
+    return ([sig.max_first(n) for n in ("dI_L", "dI_Q", "dI_fT", "dI_Tf")],
+            [sig.coriolis.value, sig.centrifugal.value, *(sig.s_crit)], a.advice.level, a.advice.terms,
+            [r.value for r in a.advice.rules])
+
+
+@pytest.mark.parametrize("name", ["beam", "genstruct1", "carbody"])
+def test_flipping_the_signs_of_any_modes_changes_no_decision(name):
+    from ffrf_advisor.io import read_body
+    body = read_body(Path(__file__).resolve().parent.parent / "sample_bodies" / f"{name}.ffrf.h5")
+    rng = np.random.default_rng(12)
+    options = Options(situation=Situation(w_op=100.0))
+    ref = _decisions(analyze(body, options))
+    for _ in range(4):
+        signs = rng.choice([-1.0, 1.0], size=body.nf)
+        got = _decisions(analyze(_flipped(body, signs), options))
+        for a, b in zip(ref[0] + [ref[1]], got[0] + [got[1]]):
+            np.testing.assert_allclose(np.asarray(b, float), np.asarray(a, float), rtol=1e-9, atol=1e-300)
+        assert got[2:4] == ref[2:4]
+        np.testing.assert_allclose(np.array(got[4], dtype=float), np.array(ref[4], dtype=float), rtol=1e-9)
+
+
+def test_cutting_modes_changes_a_ratio_only_through_the_modes_removed():
+    """Both sides of every ratio use the first n_ratio modes: a body cut from 16 to 10 modes gives the same
+    ratios as the full body with n_ratio = 10, and cutting below n_ratio changes them."""
+    from ffrf_advisor.io import read_body
+    body = read_body(Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5")
+    full = analyze(body, Options(n_ratio=10)).significance
+    cut = analyze(body.first_modes(10), Options(n_ratio=10)).significance
+    for name in ("coriolis", "centrifugal", "coriolis_paper", "centrifugal_paper"):
+        assert getattr(cut, name).value == pytest.approx(getattr(full, name).value, rel=1e-12), name
+    assert analyze(body.first_modes(8)).significance.centrifugal.value != pytest.approx(full.centrifugal.value)
+    np.testing.assert_allclose(cut.max_first("dI_Q"), full.max_first("dI_Q"), rtol=1e-12)

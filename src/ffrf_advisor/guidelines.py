@@ -201,7 +201,7 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
         if values is None:
             rules.append(Rule("III", name, None, thr, None, (), f"not evaluable: {_lacking(body)}"))
             continue
-        value = values.max()
+        value = values[..., :sig.n_ratio].max()  # the first n_ratio modes, like the ratios (theory 7)
         over = value > thr
         fired = over and not stiff
         rule3_fired |= fired
@@ -280,7 +280,7 @@ def _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired) -> list[Rule
 
 def _coriolis_torque(body: FlexibleBody, amp: Amplitudes, sig: Significance, w_op: float) -> float:
     """|deformation-dependent rotational Coriolis| / (|I0| w_op^2) at w = w_op (1,1,1)/sqrt 3."""
-    q, qd = ratio_state(body, amp.q_max, sig.n_ratio)
+    q, qd = ratio_state(body, amp.q_max, sig.n_ratio, sig.signs)  # the worst sign pattern
     w = w_op * np.ones(3) / np.sqrt(3)
     dep, _ = coriolis_terms(body, q, qd, w)
     scale = np.linalg.norm(body.I0) * w_op**2

@@ -9,6 +9,7 @@ from .body import FlexibleBody
 from .invariants import Qf
 
 N_RATIO = 10
+SIGN_SEARCH = 12  # modes whose sign patterns are searched exhaustively (2048 patterns)
 TINY = 1e-300
 
 
@@ -54,10 +55,19 @@ class Significance:
     dI_Tf: np.ndarray | None  # (nf,)   max_r (C^T I0^-1 C)_rr
     magnitudes: dict[str, Magnitudes]
     n_ratio: int
-    coriolis: Ratio | None    # |deformation-dependent rotational Coriolis| / |W1 Qf' w|, w = (1,1,1)
-    centrifugal: Ratio | None  # |[w I] W2 Qf w| / |[w I] 0.5 W1^T w|
+    coriolis: Ratio | None    # |deformation-dependent rotational Coriolis| / |W1 Qf' w|, w = (1,1,1), worst signs
+    centrifugal: Ratio | None  # |[w I] W2 Qf w| / |[w I] 0.5 W1^T w|, first n_ratio modes, worst signs
     s_crit: np.ndarray | None  # (3,) centrifugal-softening critical speeds about the principal axes
     not_evaluable: tuple[str, ...] = ()
+    coriolis_paper: Ratio | None = None     # the same with every mode in phase ("as in the paper")
+    centrifugal_paper: Ratio | None = None
+    signs: np.ndarray | None = None          # (nf,) the sign pattern of the worst Coriolis ratio
+    sign_search: str = ""                    # how the worst pattern was found
+
+    def max_first(self, name: str) -> np.ndarray | None:
+        """Per axis (or scalar for dI_Tf), the maximum of a dI measure over the first n_ratio modes."""
+        values = getattr(self, name)
+        return None if values is None else values[..., :self.n_ratio].max(axis=-1)
 
 
 def magnitudes(a: np.ndarray) -> Magnitudes:
@@ -115,21 +125,68 @@ def centrifugal_terms(body: FlexibleBody, q: np.ndarray, w: np.ndarray) -> tuple
     return _wI(w, body.W2 @ Qf(q) @ w), f_cf1(body, w)
 
 
-def ratio_state(body: FlexibleBody, q_max: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """q and q' of the ratios: first n modes at q_max,p vibrating at Omega_p (theory section 7)."""
+def ratio_state(body: FlexibleBody, q_max: np.ndarray, n: int, signs=None) -> tuple[np.ndarray, np.ndarray]:
+    """q and q' of the ratios: first n modes at signs * q_max,p vibrating at Omega_p (theory section 7)."""
     q = np.zeros_like(q_max)
-    q[:n] = q_max[:n]
+    q[:n] = q_max[:n] * (1.0 if signs is None else np.asarray(signs)[:n])
     return q, np.sqrt(body.eigenvalues) * q
 
 
-def norm_ratios(body: FlexibleBody, q_max: np.ndarray, n_ratio: int) -> tuple[Ratio, Ratio]:
-    """Coriolis (G Table 4) and centrifugal (G Table 5) ratios, first n_ratio modes at q_max, w = (1,1,1)."""
-    q, qd = ratio_state(body, q_max, n_ratio)
-    w = np.ones(3)
-    dep, const = coriolis_terms(body, q, qd, w)
-    cf2, cf1 = centrifugal_terms(body, q, w)
-    return (Ratio(float(np.linalg.norm(dep)), float(np.linalg.norm(const))),
-            Ratio(float(np.linalg.norm(cf2)), float(np.linalg.norm(cf1))))
+def sign_patterns(n: int) -> np.ndarray:
+    """All sign patterns of n modes with the first sign +1 (flipping every sign changes no ratio): (2^(n-1), n)."""
+    bits = (np.arange(2 ** max(n - 1, 0))[:, None] >> np.arange(max(n - 1, 0))) & 1
+    return np.hstack([np.ones((len(bits), 1)), 1.0 - 2.0 * bits]) if n else np.ones((1, 0))
+
+
+def _coriolis_parts(body: FlexibleBody, q_max: np.ndarray, n: int, w: np.ndarray):
+    """B[:, p, r]: deformation-dependent Coriolis of mode p deflected and mode r moving; D[:, r]: W1 Qf' w of
+    mode r moving (both bilinear or linear in the modes, so any sign pattern is a sum of them)."""
+    om = np.sqrt(body.eigenvalues)
+    B, D = np.zeros((3, n, n)), np.zeros((3, n))
+    for r in range(n):
+        qd = np.zeros(body.nf)
+        qd[r] = om[r] * q_max[r]
+        for p in range(n):
+            q = np.zeros(body.nf)
+            q[p] = q_max[p]
+            B[:, p, r], D[:, r] = coriolis_terms(body, q, qd, w)
+    return B, D
+
+
+def _worst(num: np.ndarray, den: np.ndarray) -> int:
+    """Index of the largest num/den (a vanishing denominator with a finite numerator counts as infinite)."""
+    scale = max(num.max(), den.max(), TINY)
+    value = np.where(den <= 1e-14 * scale, np.where(num <= 1e-14 * scale, 0.0, np.inf), num / np.maximum(den, TINY))
+    return int(np.lexsort((num, value))[-1])
+
+
+def norm_ratios(body: FlexibleBody, q_max: np.ndarray, n_ratio: int) -> dict:
+    """Coriolis (G Table 4) and centrifugal (G Table 5) ratios over the first n_ratio modes, w = (1,1,1):
+    the maximum over the modes' sign patterns (exhaustive up to SIGN_SEARCH modes; beyond, the numerator's
+    triangle-inequality bound over the all-in-phase denominator, said so) and the all-positive value."""
+    n, w = n_ratio, np.ones(3)
+    B, D = _coriolis_parts(body, q_max, n, w)
+    q, _ = ratio_state(body, q_max, n)
+    f1 = f_cf1(body, w)[:n]
+    C = np.stack([centrifugal_terms(body, np.eye(body.nf)[p] * q_max[p], w)[0][:n] for p in range(n)], axis=1)
+    paper = (Ratio(float(np.linalg.norm(B.sum(axis=(1, 2)))), float(np.linalg.norm(D.sum(axis=1)))),
+             Ratio(float(np.linalg.norm(C.sum(axis=1))), float(np.linalg.norm(f1))))
+    signs = np.ones(body.nf)
+    if n <= SIGN_SEARCH:
+        S = sign_patterns(n)
+        num = np.linalg.norm(np.einsum("sp,kpr,sr->sk", S, B, S), axis=1)
+        den = np.linalg.norm(S @ D.T, axis=1)
+        i = _worst(num, den)
+        signs[:n] = S[i]
+        cf = np.linalg.norm(S @ C.T, axis=1)
+        cor, cen = Ratio(float(num[i]), float(den[i])), Ratio(float(cf.max()), paper[1].denominator)
+        how = f"maximum over all {len(S)} sign patterns of the first {n} modes"
+    else:
+        cor = Ratio(float(np.linalg.norm(np.abs(B).sum(axis=(1, 2)))), paper[0].denominator)
+        cen = Ratio(float(np.linalg.norm(np.abs(C).sum(axis=1))), paper[1].denominator)
+        how = f"triangle-inequality bound over the first {n} modes (more than {SIGN_SEARCH}: not searched)"
+    return {"coriolis": cor, "centrifugal": cen, "coriolis_paper": paper[0], "centrifugal_paper": paper[1],
+            "signs": signs, "sign_search": how}
 
 
 def softening_speeds(body: FlexibleBody) -> np.ndarray:
@@ -152,10 +209,12 @@ def significance(body: FlexibleBody, q_max: np.ndarray, n_ratio: int | None = No
     missing = body.integrals.missing
     dI_L, dI_Q = inertia_change(body, q_max)
     dI_fT, dI_Tf = (None, None) if "W3" in missing else coupling(body, q_max)
-    cor, cf = (None, None) if missing else norm_ratios(body, q_max, n)
+    ratios = {} if missing else norm_ratios(body, q_max, n)
     mags = {name: magnitudes(getattr(body, name)) for name in ("I0", "W1", "W2", "W3") if name not in missing}
     s_crit = None if "W2" in missing else softening_speeds(body)
-    return Significance(dI_L, dI_Q, dI_fT, dI_Tf, mags, n, cor, cf, s_crit, not_evaluable(missing))
+    return Significance(dI_L, dI_Q, dI_fT, dI_Tf, mags, n, ratios.get("coriolis"), ratios.get("centrifugal"), s_crit,
+                        not_evaluable(missing), ratios.get("coriolis_paper"), ratios.get("centrifugal_paper"),
+                        ratios.get("signs"), ratios.get("sign_search", ""))
 
 
 NEEDS = {"dI_Q": ("W2",), "dI_fT": ("W3",), "dI_Tf": ("W3",), "coriolis_ratio": ("W2", "W3"),

@@ -21,18 +21,14 @@ def comparison(analyses: list[Analysis], sources: list[str]) -> dict:
             "frequencies": json_array(b.frequencies_hz[:n]),
             "sigma_max": json_array(None if b.sigma_max is None else b.sigma_max[:n]),
             "q_max": json_array(amp.q_max[:n]), "q_max_governs": list(amp.governs[:n]),
-            "dI_L": _axes(sig.dI_L), "dI_Q": _axes(sig.dI_Q), "dI_fT": _axes(sig.dI_fT),
-            "dI_Tf": None if sig.dI_Tf is None else json_number(sig.dI_Tf.max()),
+            "dI_L": json_array(sig.max_first("dI_L")), "dI_Q": json_array(sig.max_first("dI_Q")),
+            "dI_fT": json_array(sig.max_first("dI_fT")),
+            "dI_Tf": None if sig.dI_Tf is None else json_number(sig.max_first("dI_Tf")),
             "norms": {k: m.frobenius for k, m in sig.magnitudes.items()},
             "coriolis_ratio": json_ratio(sig.coriolis), "centrifugal_ratio": json_ratio(sig.centrifugal),
             "level": a.advice.level, "terms": list(a.advice.terms), "warnings": list(a.advice.warnings),
         })
     return {"schema_version": SCHEMA_VERSION, "shown_modes": N_SHOWN, "bodies": bodies}
-
-
-def _axes(values):
-    """Max over modes per axis, or None when not evaluable."""
-    return None if values is None else json_array(values.max(axis=1))
 
 
 def _fmt(x) -> str:

@@ -83,15 +83,17 @@ def analysis_summary(console: Console, a) -> None:
                   "-" if amp.stress_utilisation is None else f"{amp.stress_utilisation[p]:.3g}",
                   "-" if amp.deflection_ratio is None else f"{amp.deflection_ratio[p]:.3g}")
     console.print(t)
-    m = Table(title="significance per axis (max over modes; theory 7)")
+    m = Table(title=f"significance per axis (max over the first {sig.n_ratio} modes; theory 7)")
     for col in ("axis", "dI_L", "dI_Q", "dI_fT", "s_crit [rad/" + u.time + "]"):
         m.add_column(col, justify="right")
     for k in range(3):
-        m.add_row(str(k + 1), _max(sig.dI_L, k), _max(sig.dI_Q, k), _max(sig.dI_fT, k),
+        m.add_row(str(k + 1), *(_max(sig.max_first(name), k) for name in ("dI_L", "dI_Q", "dI_fT")),
                   "n/a" if sig.s_crit is None else f"{sig.s_crit[k]:.4g}")
     console.print(m)
-    console.print(f"dI_Tf max {_max(sig.dI_Tf)};  Coriolis ratio {_ratio(sig.coriolis)};  "
-                  f"centrifugal ratio {_ratio(sig.centrifugal)};  first {sig.n_ratio} modes")
+    console.print(f"dI_Tf max {_max(sig.max_first('dI_Tf'))};  "
+                  f"Coriolis ratio {_ratio(sig.coriolis)} (as in the paper {_ratio(sig.coriolis_paper)});  "
+                  f"centrifugal ratio {_ratio(sig.centrifugal)} (as in the paper {_ratio(sig.centrifugal_paper)}); "
+                  f"first {sig.n_ratio} modes, {sig.sign_search or 'not evaluable'}", highlight=False)
     if sig.not_evaluable:
         console.print(f"not evaluable (n/a): {', '.join(sig.not_evaluable)}")
     g = Table(title="magnitudes (G Tables 2, 3)")
@@ -114,7 +116,7 @@ def _max(values, k=None) -> str:
     """max of a measure (row k), or 'n/a' when it is not evaluable."""
     if values is None:
         return "n/a"
-    return f"{(values if k is None else values[k]).max():.3e}"
+    return f"{np.max(values if k is None else values[k]):.3e}"
 
 
 def _ratio(r) -> str:

@@ -7,7 +7,6 @@ Speeds are in rad per body time unit, durations in body time units.
 """
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -18,7 +17,6 @@ from ..sim.integrate import Loads
 from ..units import TIME
 
 SCENES = ("free-spin", "spin-up", "torque-pulse", "minor-axis")
-SIGN_SEARCH = 12  # modes whose signs are searched exhaustively for the worst pattern (4096 patterns)
 
 
 @dataclass(frozen=True)
@@ -93,23 +91,10 @@ def deformation_axis(a: Analysis) -> int:
     return major if total[major] >= total[minor] else minor
 
 
-def worst_signs(a: Analysis, q: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """q with the sign pattern of its first 12 modes that maximises the deformation-dependent Coriolis
-    torque at spin w with the modes vibrating (the worst pattern of theory section 7)."""
-    from ..significance import coriolis_terms
-    body = a.body
-    if body.integrals.Sbar is None:
-        return q
-    k = min(SIGN_SEARCH, body.nf)
-    best, best_q = -1.0, q
-    om = np.sqrt(body.eigenvalues)
-    for signs in itertools.product((1.0, -1.0), repeat=k - 1):  # the first sign is free: the torque is even
-        trial = q.copy()
-        trial[1:k] *= signs
-        torque = np.linalg.norm(coriolis_terms(body, trial, om * trial, w)[0])
-        if torque > best:
-            best, best_q = torque, trial
-    return best_q
+def worst_signs(a: Analysis, q: np.ndarray) -> np.ndarray:
+    """q with the sign pattern of the worst Coriolis ratio of theory section 7 (found by significance)."""
+    signs = a.significance.signs
+    return q if signs is None else q * signs
 
 
 def _seconds(a: Analysis, value: float | None) -> float | None:
@@ -129,7 +114,7 @@ def free_spin(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
     k = _axis(a, opts, deformation_axis(a))
     s = opts.speed * TIME[a.body.units.time] if opts.speed is not None else default_speed(a)
     w = s * np.eye(3)[k]
-    q0 = worst_signs(a, np.array(a.amplitudes.q_max), w)
+    q0 = worst_signs(a, np.array(a.amplitudes.q_max))
     T = _seconds(a, opts.duration) or min(max(5 * _first_period(a), 3 * 2 * np.pi / s), 50 * _first_period(a))
     return Scene("free-spin", k, T, w, q0, np.zeros(a.body.nf), speed=s,
                  text="free spin, modes at q_max (worst sign pattern)")

@@ -94,17 +94,23 @@ def test_widening_rule_by_user_and_by_centrifugal_stress():
         assert ("cf1" in adv.terms) is fires
 
 
-def test_cf2_needs_widening_and_a_large_centrifugal_measure():
+def test_cf2_needs_widening_and_a_large_response_measure():
+    """r_cf2 (theory 7): about axes 2 and 3 Kc = I, so Omega_1(s) = sqrt(200^2 - s^2): at 150 rad/s the
+    frequency falls by 1 - sqrt(1 - 0.75^2) = 34 %, and the static response q2 / q0 - 1 = 1/(1 - 0.5625) - 1."""
     body = widening_body()
-    assert "cf2" not in advise(body, w_op=10.0, widening=True).terms
-    loud = advise(body, w_op=150.0, widening=True, f_sys=1e4)  # (w/s_crit)^2 = (150/200)^2 about axes 2, 3
+    quiet = advise(body, w_op=10.0, widening=True, f_sys=1e4)
+    assert "cf2" not in quiet.terms and rule(quiet, "cf2").value < 0.01
+    loud = advise(body, w_op=150.0, widening=True, f_sys=1e4)
     assert "cf2" in loud.terms and loud.level == "III"
+    assert rule(loud, "cf2").value == pytest.approx(1 / (1 - 0.75**2) - 1, rel=1e-9)
     assert any("softening limit" in w for w in loud.warnings)  # 150 / 200 > 0.5
     assert not any("softening limit" in w for w in advise(body, w_op=10.0, f_sys=1e4).warnings)
     assert "cf2" not in advise(body, w_op=150.0, widening=False).terms
-    # W1 = 0 (symmetric body): cf2 is the only centrifugal term, the ratio is infinite and cf2 is kept
-    symmetric = advise(synthetic(), widening=True)
-    assert "cf2" in symmetric.terms and rule(symmetric, "cf2").value == np.inf
+    assert rule(advise(body, widening=True), "cf2").fired is None  # no speed: not evaluated
+    # W1 = 0 (symmetric body): no static response to change, but the frequency shift decides
+    symmetric = advise(synthetic(), w_op=150.0, widening=True, f_sys=1e4)
+    assert "cf2" in symmetric.terms
+    assert rule(symmetric, "cf2").value == pytest.approx(1 - np.sqrt(1 - 0.75**2), rel=1e-9)
 
 
 def test_coriolis_rules_follow_speed_ratio_and_connection():
@@ -245,3 +251,17 @@ def test_cutting_modes_changes_a_ratio_only_through_the_modes_removed():
         assert getattr(cut, name).value == pytest.approx(getattr(full, name).value, rel=1e-12), name
     assert analyze(body.first_modes(8)).significance.centrifugal.value != pytest.approx(full.centrifugal.value)
     np.testing.assert_allclose(cut.max_first("dI_Q"), full.max_first("dI_Q"), rtol=1e-12)
+
+
+@pytest.mark.parametrize("name", ["beam", "plate", "conrod", "genstruct1", "genstruct2", "carbody"])
+def test_levels_and_term_sets_never_shrink_as_the_speed_grows(name):
+    from ffrf_advisor.significance import softening_speeds
+    from ffrf_advisor.guidelines import LEVELS
+    body = read_body(Path(__file__).resolve().parent.parent / "sample_bodies" / f"{name}.ffrf.h5")
+    s_crit = softening_speeds(body).min()
+    previous_level, previous_terms = 0, set()
+    for s in np.linspace(0.0, 0.9 * s_crit, 12):
+        adv = analyze(body, Options(situation=Situation(w_op=float(s)))).advice
+        level, terms = LEVELS.index(adv.level), set(adv.terms)
+        assert level >= previous_level and terms >= previous_terms, (s, adv.level, adv.terms)
+        previous_level, previous_terms = level, terms

@@ -127,3 +127,18 @@ def test_an_assumption_failure_is_a_warning_in_analyze_json_and_in_gate_junit(tm
     assert "mass_normalisation failed" in ET.parse(junit).getroot().find("testcase").find("system-out").text
     good = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--json"]).output)
     assert all(c["passed"] for c in good["checks"]) and not any("check" in w for w in good["warnings"])
+
+
+def test_spin_axis_from_the_command_line_and_the_config(tmp_path):
+    one = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "200", "--spin-axis", "2", "--json"]).output)
+    assert one["situation"]["spin_axis"] == [0.0, 1.0, 0.0]
+    assert all("spin axis 0, 1, 0" in r["reason"] for r in one["rules"] if r["name"] in ("cf2", "cor_deformation")
+               and r["value"] is not None)
+    every = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "200", "--json"]).output)
+    assert every["situation"]["spin_axis"] is None and any("principal axis" in r["reason"] for r in every["rules"])
+    cfg = tmp_path / "ffrf-advisor.toml"
+    cfg.write_text("spin_axis = [0.0, 0.6, 0.8]\n")
+    tilted = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--config", str(cfg), "--json"]).output)
+    assert tilted["situation"]["spin_axis"] == [0.0, 0.6, 0.8]
+    bad = runner.invoke(app, ["analyze", str(SAMPLE), "--spin-axis", "4,x"])
+    assert bad.exit_code == 2 and "--spin-axis" in bad.output

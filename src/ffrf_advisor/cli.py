@@ -85,6 +85,8 @@ NRatio = Annotated[Optional[int], typer.Option("--n-ratio", help="Modes used for
 Threshold = Annotated[Optional[list[str]], typer.Option("--threshold", help="Override a threshold: NAME=VALUE.")]
 Config = Annotated[Optional[Path], typer.Option("--config", help="TOML config (default ffrf-advisor.toml or pyproject).")]
 AsJson = Annotated[bool, typer.Option("--json", help="Print JSON (docs/json-schema.json) instead of tables.")]
+SpinAxis = Annotated[Optional[str], typer.Option(
+    "--spin-axis", help="Spin axis: principal axis 1, 2, 3 or a body-frame vector X,Y,Z (default: each, the worst decides).")]
 
 
 def _numbers(option: str, text: str | None):
@@ -128,8 +130,23 @@ def _thresholds(items: list[str] | None, base: dict) -> dict:
     return out
 
 
+def _spin_axis(text) -> tuple[float, float, float] | None:
+    """'1', '2', '3' (principal axes) or 'X,Y,Z'; None stays None."""
+    if text is None:
+        return None
+    if str(text).strip() in ("1", "2", "3"):
+        return tuple(float(x) for x in np.eye(3)[int(text) - 1])
+    if isinstance(text, (list, tuple)):
+        text = ",".join(str(x) for x in text)
+    values = _numbers("--spin-axis", str(text))
+    if values is None or len(values) != 3 or not np.all(np.isfinite(values)) or not np.any(values):
+        raise FFRFError(f"--spin-axis {text!r}: expected 1, 2, 3 or three finite numbers X,Y,Z, not all zero")
+    return tuple(values)
+
+
 def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_allow=None, q_cap=None,
-                  deflection_cap=None, q_max=None, n_ratio=None, threshold=None, config=None) -> Options:
+                  deflection_cap=None, q_max=None, n_ratio=None, threshold=None, config=None,
+                  spin_axis=None) -> Options:
     """Options from defaults < config file < command line."""
     cfg = load_config(config)
     pick = lambda cli, key, default=None: cli if cli is not None else cfg.get(key, default)  # noqa: E731
@@ -139,7 +156,8 @@ def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_
                            deflection_cap=pick(deflection_cap, "deflection_cap"), q_max=_numbers("--q-max", q_max))
     situation = Situation(w_op=None if speed is None else parse_speed(speed), f_sys=pick(f_sys, "f_sys"),
                           connection=pick(connection, "connection", "free"), widening=widening,
-                          thresholds=_thresholds(threshold, cfg.get("thresholds", {})))
+                          thresholds=_thresholds(threshold, cfg.get("thresholds", {})),
+                          spin_axis=_spin_axis(pick(spin_axis, "spin_axis")))
     options = Options(amp, situation, pick(n_ratio, "n_ratio"))
     check_options(options)
     return options
@@ -151,10 +169,10 @@ def analyze(body: Path = typer.Argument(..., help="Body file."), speed: Speed = 
             connection: Connection = None, widening: Widening = None, sigma_allow: SigmaAllow = None,
             q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None, n_ratio: NRatio = None,
             threshold: Threshold = None, config: Config = None, as_json: AsJson = False,
-            eigenvalues: Eigenvalues = None, density: Density = None):
+            eigenvalues: Eigenvalues = None, density: Density = None, spin_axis: SpinAxis = None):
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config)
+                            n_ratio, threshold, config, spin_axis)
     result = run_analysis(_read(body, eigenvalues, density), options)
     if as_json:
         print(json.dumps(analysis_json(result, str(body)), indent=1))
@@ -167,14 +185,15 @@ def analyze(body: Path = typer.Argument(..., help="Body file."), speed: Speed = 
 def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
          max_level: str = typer.Option(..., "--max-level", help="Highest level the model implements: I-IV."),
          speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
-         threshold: Threshold = None, config: Config = None,
+         threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
          junit: Optional[Path] = typer.Option(None, "--junit", help="Write JUnit XML here."),
          jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Bodies analysed in parallel."),
          as_json: AsJson = False):
     """CI gate: exit 0 when every body's level is within --max-level, 1 when one is not, 2 on bad input."""
     if max_level not in LEVELS:
         raise FFRFError(f"--max-level {max_level!r}: expected one of {', '.join(LEVELS)}")
-    options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config)
+    options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config,
+                            spin_axis=spin_axis)
     results = run_gate([str(b) for b in bodies], options, max_level, jobs, err)
     if junit is not None:
         with atomic_path(junit, overwrite=True) as tmp:

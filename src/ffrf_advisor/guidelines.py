@@ -12,7 +12,8 @@ import numpy as np
 from .amplitudes import Amplitudes
 from .body import FlexibleBody
 from .errors import FFRFError
-from .significance import Significance, coriolis_terms, f_cf1, ratio_state
+from .response import r_cf2, r_cor
+from .significance import Significance, f_cf1
 from .terms import is_lagrangian, lagrangian_superset, ordered
 from .units import TIME
 
@@ -22,11 +23,9 @@ THRESHOLDS = {
     "dI_Q": 0.05,
     "dI_fT": 0.05,
     "dI_Tf": 0.05,
-    "centrifugal_ratio": 0.01,  # rule III, cf2
-    "softening": 0.01,          # rule III, cf2: (w_op / s_crit)^2
+    "r_cf2": 0.01,              # rule III, cf2: response measure r_cf2 at w_op (theory 7)
     "speed_ratio": 0.1,         # rule IV: w_op / (2 pi f_sys)
-    "coriolis_ratio": 0.01,     # rule IV, cor_quad + cor_coupling
-    "coriolis_torque": 0.01,    # rule IV, cor_quad + cor_coupling: / (|I0| w_op^2)
+    "r_cor": 0.01,              # rule IV, cor_quad + cor_coupling: response measure r_cor at w_op (theory 7)
     "softening_warning": 0.5,   # warn when w_op / s_crit exceeds this
 }
 CONNECTIONS = ("free", "soft", "stiff")
@@ -43,6 +42,14 @@ class Situation:
     connection: str = "free"
     widening: bool | None = None  # None: decided from the centrifugal stress
     thresholds: dict[str, float] = field(default_factory=dict)
+    spin_axis: tuple[float, float, float] | None = None  # body frame; None: each principal axis, the worst decides
+
+    def axes(self) -> list[np.ndarray]:
+        """The spin axes the rules evaluate: the given one, or the three principal axes."""
+        if self.spin_axis is None:
+            return list(np.eye(3))
+        a = np.asarray(self.spin_axis, float)
+        return [a / np.linalg.norm(a)]
 
     def threshold(self, name: str) -> float:
         return {**THRESHOLDS, **self.thresholds}[name]
@@ -117,7 +124,8 @@ def _toml(path: Path) -> dict:
         raise FFRFError(f"{path}: config: expected readable TOML, got {e}") from None
 
 
-CONFIG_KEYS = {"sigma_allow", "q_cap", "deflection_cap", "n_ratio", "connection", "speed", "f_sys", "thresholds"}
+CONFIG_KEYS = {"sigma_allow", "q_cap", "deflection_cap", "n_ratio", "connection", "speed", "f_sys", "thresholds",
+               "spin_axis"}
 
 
 def _validated(cfg: dict, path: Path) -> dict:
@@ -156,14 +164,24 @@ def _rule_II(body, amp: Amplitudes, sit: Situation, w_op) -> Rule:
         return Rule("II", "widening", None, thr, None, (), "not evaluated: no operating speed")
     if body.sigma_max is None:
         return Rule("II", "widening", None, thr, None, (), "not evaluated: no modal stress data")
-    stress = 0.0
-    for k in range(3):  # spin about each principal axis; the largest centrifugal stress decides
-        q_c = f_cf1(body, w_op * np.eye(3)[k]) / body.eigenvalues
-        stress = max(stress, float(np.abs(q_c) @ body.sigma_max))
-    value = stress / amp.sigma_allow
+    stress = [float(np.abs(f_cf1(body, w_op * a) / body.eigenvalues) @ body.sigma_max) for a in sit.axes()]
+    k = int(np.argmax(stress))  # the largest centrifugal stress over the spin axes decides
+    value = stress[k] / amp.sigma_allow
     fired = value > thr
     return Rule("II", "widening", value, thr, fired, ("cf1",) if fired else (),
-                f"static centrifugal stress at w_op is {value:.2%} of sigma_allow")
+                f"static centrifugal stress at w_op is {value:.2%} of sigma_allow ({_axis_text(sit, k)})")
+
+
+def _axis_text(sit: Situation, k: int) -> str:
+    return "spin axis " + (", ".join(f"{x:.3g}" for x in sit.axes()[0]) if sit.spin_axis is not None
+                           else f"principal axis {k + 1}")
+
+
+def _worst_axis(sit: Situation, measure) -> tuple[float, int]:
+    """(largest value of ``measure(a)`` over the spin axes, its axis index)."""
+    values = [measure(a) for a in sit.axes()]
+    k = int(np.argmax(values))
+    return float(values[k]), k
 
 
 def _speed_ratio(body: FlexibleBody, sit: Situation) -> tuple[float | None, list[str]]:
@@ -208,12 +226,11 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
         reason = (f"max {name} = {value:.3g} {'>' if over else '<='} {thr:g}"
                   + ("; body stiffly connected: I0 suffices" if over and stiff else ""))
         rules.append(Rule("III", name, float(value), thr, fired, (term,) if fired else (), reason))
-    rules.append(_rule_cf2(body, sig, sit, w_op, widening, stiff))
-    rule3_fired |= bool(rules[-1].fired)
+    rules.append(_rule_cf2(body, sit, w_op, widening, stiff))  # cf2 alone does not call for Coriolis terms
 
     ratio, w = _speed_ratio(body, sit)
     warnings += w
-    rules += _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired)
+    rules += _rules_IV(body, sig, sit, w_op, ratio, stiff, rule3_fired)
 
     if sig.not_evaluable:
         warnings.append(f"decided without {', '.join(sig.not_evaluable)} ({_lacking(body)}); "
@@ -234,23 +251,26 @@ def _lacking(body: FlexibleBody) -> str:
     return f"the body has no {' and no '.join(body.integrals.missing)} (e.g. an invariants file without I9)"
 
 
-def _rule_cf2(body: FlexibleBody, sig: Significance, sit: Situation, w_op, widening: bool, stiff: bool) -> Rule:
-    thr = sit.threshold("centrifugal_ratio")
+def _rule_cf2(body: FlexibleBody, sit: Situation, w_op, widening: bool, stiff: bool) -> Rule:
+    """cf2 when widening matters and r_cf2 at w_op exceeds its threshold (theory 7, 8)."""
+    thr = sit.threshold("r_cf2")
     if not widening:
-        value = None if sig.centrifugal is None else sig.centrifugal.value
-        return Rule("III", "cf2", value, thr, False, (), "widening does not matter (rule II): cf2 not needed")
-    if sig.centrifugal is None:
+        return Rule("III", "cf2", None, thr, False, (), "widening does not matter (rule II): cf2 not needed")
+    if "W2" in body.integrals.missing:
         return Rule("III", "cf2", None, thr, None, (), f"not evaluable: {_lacking(body)}")
-    cr = sig.centrifugal.value
-    soft = None if w_op is None else float((w_op / sig.s_crit.min()) ** 2)
-    over = (cr is not None and cr > thr) or (soft is not None and soft > sit.threshold("softening"))
+    if w_op is None:
+        return Rule("III", "cf2", None, thr, None, (), "r_cf2 not evaluated: no operating speed")
+    value, k = _worst_axis(sit, lambda a: r_cf2(body, a, w_op))
+    over = value > thr
     fired = over and not stiff
-    reason = (f"centrifugal ratio {sig.centrifugal.text()} (> {thr:g}?), softening (w_op/s_crit)^2 = "
-              + ("n/a" if soft is None else f"{soft:.3g}") + f" (> {sit.threshold('softening'):g}?)")
-    return Rule("III", "cf2", cr, thr, fired, ("cf2",) if fired else (), reason)
+    reason = (f"r_cf2 = {value:.3g} {'>' if over else '<='} {thr:g} at w_op ({_axis_text(sit, k)}): change of the "
+              "static centrifugal response or of the frequencies by cf2" + ("; stiffly connected" if over and stiff else ""))
+    return Rule("III", "cf2", value, thr, fired, ("cf2",) if fired else (), reason)
 
 
-def _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired) -> list[Rule]:
+def _rules_IV(body, sig, sit, w_op, ratio, stiff, inertia_fired) -> list[Rule]:
+    """cor1 when w_op / (2 pi f_sys) is not well below 1; cor_quad and cor_coupling when, besides, an inertia or
+    coupling measure of rule III fired or r_cor at w_op exceeds its threshold (theory 8)."""
     thr = sit.threshold("speed_ratio")
     if ratio is None:
         return [Rule("IV", "speed_ratio", None, thr, None, (), "not evaluated: no operating speed")]
@@ -259,31 +279,18 @@ def _rules_IV(body, amp, sig, sit, w_op, ratio, stiff, rule3_fired) -> list[Rule
     rules = [Rule("IV", "speed_ratio", float(ratio), thr, fired, ("cor1",) if fired else (),
                   f"w_op / (2 pi f_sys) = {ratio:.3g} {'>=' if fast else '<'} {thr:g}"
                   + ("; stiffly connected" if fast and stiff else ""))]
-    cthr = sit.threshold("coriolis_torque")
-    if sig.coriolis is None:
-        full = fired and rule3_fired
+    cthr = sit.threshold("r_cor")
+    if body.integrals.missing:
+        full = fired and inertia_fired
         reason = ("rule III fired (beam-like or rotationally soft body)" if full
-                  else f"not evaluable: {_lacking(body)}")
+                  else f"r_cor not evaluable: {_lacking(body)}")
         rules.append(Rule("IV", "cor_deformation", None, cthr, True if full else (None if fired else False),
                           DEFORMATION_CORIOLIS if full else (), reason))
         return rules
-    torque = _coriolis_torque(body, amp, sig, w_op)
-    cr = sig.coriolis.value
-    by_ratio = cr is not None and cr > sit.threshold("coriolis_ratio") and torque > cthr
-    full = fired and (rule3_fired or by_ratio)
-    reason = ("rule III fired (beam-like or rotationally soft body)" if rule3_fired else
-              f"Coriolis ratio {sig.coriolis.text()}, deformation-dependent Coriolis torque {torque:.3g} "
-              f"of |I0| w_op^2 (> {cthr:g}?)")
-    rules.append(Rule("IV", "cor_deformation", torque, cthr, full, DEFORMATION_CORIOLIS if full else (), reason))
+    value, k = _worst_axis(sit, lambda a: r_cor(body, a, w_op))
+    full = fired and (inertia_fired or value > cthr)
+    reason = (("rule III fired (beam-like or rotationally soft body); " if inertia_fired else "")
+              + f"r_cor = {value:.3g} {'>' if value > cthr else '<='} {cthr:g} at w_op ({_axis_text(sit, k)}): "
+              "frequency change by the deformation-dependent Coriolis terms")
+    rules.append(Rule("IV", "cor_deformation", value, cthr, full, DEFORMATION_CORIOLIS if full else (), reason))
     return rules
-
-
-def _coriolis_torque(body: FlexibleBody, amp: Amplitudes, sig: Significance, w_op: float) -> float:
-    """|deformation-dependent rotational Coriolis| / (|I0| w_op^2) at w = w_op (1,1,1)/sqrt 3."""
-    q, qd = ratio_state(body, amp.q_max, sig.n_ratio, sig.signs)  # the worst sign pattern
-    w = w_op * np.ones(3) / np.sqrt(3)
-    dep, _ = coriolis_terms(body, q, qd, w)
-    scale = np.linalg.norm(body.I0) * w_op**2
-    return float(np.linalg.norm(dep) / scale) if scale > 0 else 0.0
-
-

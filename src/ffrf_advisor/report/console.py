@@ -12,6 +12,7 @@ from rich.table import Table
 
 from ..body import FlexibleBody
 from ..checks import Check
+from ..sim.cost import cost_ratio
 
 
 def _matrix(a: np.ndarray) -> str:
@@ -60,10 +61,11 @@ def checks_table(checks: list[Check]) -> Table:
     return table
 
 
-def _not_lagrangian(adv) -> str:
+def _not_lagrangian(adv, nf: int) -> str:
     superset = adv.lagrangian_superset
     return ("\n[yellow]not Lagrangian[/yellow] (theory 5: energy and |H| drift); smallest Lagrangian superset: "
-            + (", ".join(superset) if superset else "none"))
+            + (f"{', '.join(superset)} (right-hand side x{cost_ratio(superset, adv.terms, nf):.2f})" if superset
+               else "none"))
 
 
 def analysis_summary(console: Console, a) -> None:
@@ -71,7 +73,7 @@ def analysis_summary(console: Console, a) -> None:
     b, amp, sig, adv = a.body, a.amplitudes, a.significance, a.advice
     u = b.units
     console.print(f"[bold]{b.name}[/bold]: level [bold]{adv.level}[/bold]   terms: {', '.join(adv.terms)}"
-                  + ("   (Lagrangian)" if adv.lagrangian else _not_lagrangian(adv)))
+                  + ("   (Lagrangian)" if adv.lagrangian else _not_lagrangian(adv, b.nf)))
     for w in adv.warnings:
         console.print(f"[yellow]warning[/yellow]: {w}")
     t = Table(title=f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "

@@ -9,6 +9,7 @@ from .. import __version__
 from ..analysis import Analysis
 from ..guidelines import THRESHOLDS
 from ..significance import Ratio
+from ..sim.cost import cost_ratio
 
 SCHEMA_VERSION = 2  # 2: cor_full split into cor_quad + cor_coupling; lagrangian replaces energy_consistent
 
@@ -46,11 +47,14 @@ def analysis_json(a: Analysis, source: str) -> dict:
         "situation": {
             "speed_rad_s": json_number(sit.w_op), "f_sys_hz": json_number(sit.f_sys), "connection": sit.connection,
             "widening": sit.widening, "thresholds": {**THRESHOLDS, **sit.thresholds},
+            "spin_axis": None if sit.spin_axis is None else list(sit.spin_axis),
         },
         "level": adv.level,
         "terms": list(adv.terms),
         "lagrangian": adv.lagrangian,
         "lagrangian_superset": None if adv.lagrangian_superset is None else list(adv.lagrangian_superset),
+        "lagrangian_superset_cost": None if adv.lagrangian_superset is None
+        else cost_ratio(adv.lagrangian_superset, adv.terms, b.nf),
         "amplitudes": {
             "q_max": json_array(amp.q_max), "governs": list(amp.governs), "q_cap": amp.q_cap,
             "sigma_allow": amp.sigma_allow, "stress_utilisation": json_array(amp.stress_utilisation),

@@ -1,0 +1,29 @@
+"""The simulator's cost model: multiply-adds of one compiled right-hand side (sim.kernels) per term set.
+
+It counts the loops of ``kernels.rhs_into``: the W2 terms share the nine
+block products ``Sbar_kl q`` (9 nf^2), the W3 terms the three skew blocks
+(3 nf^2 each for C(q), unless the W2 products give C for free, and for the
+flexible Coriolis part), everything else is O(nf). benchmarks/bench_sim.py
+prints the measured ratios beside it.
+"""
+from __future__ import annotations
+
+
+def rhs_cost(terms, nf: int) -> float:
+    """Multiply-adds of one right-hand side with ``terms`` and ``nf`` modes."""
+    t = set(terms)
+    w2 = bool(t & {"inertia_quad", "cf2", "cor_quad"})
+    cost = 6 * nf + 40  # stiffness, damping, kinematics, gyroscopic term, 3 x 3 solve
+    cost += 9 * nf * ("inertia_lin" in t) + (9 * nf + 9) * ("cor1" in t) + 10 * nf * ("cf1" in t)
+    cost += 9 * nf * nf * w2 + 18 * nf * ("inertia_quad" in t) + (18 * nf + 9) * ("cor_quad" in t)
+    cost += 10 * nf * ("cf2" in t)
+    if t & {"coupling", "cor_coupling"}:
+        cost += 6 * nf if w2 else 3 * nf * nf
+    cost += (3 * nf * nf + 3 * nf) * ("cor_coupling" in t) + 12 * nf * ("coupling" in t)
+    cost += 6 * nf * nf * ("geo_stiff" in t)
+    return float(cost)
+
+
+def cost_ratio(superset, terms, nf: int) -> float:
+    """Right-hand-side cost of ``superset`` over that of ``terms``."""
+    return rhs_cost(superset, nf) / rhs_cost(terms, nf)

@@ -160,7 +160,7 @@ def test_a_sweep_on_a_dask_cluster_gives_the_errors_of_the_local_run(tmp_path):
     tasks = [Task(str(path), s, s / 1000.0, ("free-spin", "torque-pulse")) for s in (100.0, 300.0)]
     serial = run_sweep(tasks)
     local = run_sweep(tasks, jobs=2)
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=":0") as cluster:
         dask = run_sweep(tasks, scheduler=cluster.scheduler_address)
     for rows in (local, dask):
         for a, b in zip(serial, rows):

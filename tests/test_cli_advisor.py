@@ -6,6 +6,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import jsonschema
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -142,3 +143,65 @@ def test_spin_axis_from_the_command_line_and_the_config(tmp_path):
     assert tilted["situation"]["spin_axis"] == [0.0, 0.6, 0.8]
     bad = runner.invoke(app, ["analyze", str(SAMPLE), "--spin-axis", "4,x"])
     assert bad.exit_code == 2 and "--spin-axis" in bad.output
+
+
+def _body_with_eigenvalues(tmp_path, name, eigenvalues):
+    from dataclasses import replace as dc_replace
+
+    from ffrf_advisor.io import read_body, write_body
+    body = read_body(SAMPLE)
+    path = tmp_path / f"{name}.ffrf.h5"
+    write_body(dc_replace(body, eigenvalues=np.asarray(eigenvalues, float)), path)
+    return path
+
+
+@pytest.mark.parametrize("command", ["info", "analyze", "settings", "compare"])
+def test_non_positive_eigenvalues_are_one_line_and_exit_2_in_every_command(tmp_path, command):
+    from ffrf_advisor.io import read_body
+    lam = np.array(read_body(SAMPLE).eigenvalues)
+    lam[3] = -lam[3]
+    path = _body_with_eigenvalues(tmp_path, "negative", lam)
+    result = runner.invoke(app, [command, str(path)])
+    assert result.exit_code == 2 and "eigenvalues" in result.output and "mode 4" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and "Traceback" not in result.output
+
+
+def test_unsorted_modes_are_sorted_with_everything_per_mode_and_said_so(tmp_path):
+    from ffrf_advisor.io import read_body
+    body = read_body(SAMPLE)
+    order = np.arange(body.nf)[::-1]
+    path = tmp_path / "reversed.ffrf.h5"
+    from ffrf_advisor.io import write_body
+    write_body(body.with_modes(order), path)
+    back = read_body(path)
+    assert np.array_equal(back.eigenvalues, body.eigenvalues)
+    assert np.allclose(back.integrals.Sbar, body.integrals.Sbar, rtol=0, atol=1e-15)
+    assert np.allclose(back.sigma_max, body.sigma_max, rtol=0, atol=0)
+    assert any("sorted by eigenvalue" in n for n in back.provenance.notes)
+
+
+def test_gate_reports_every_body_of_a_mix_of_good_and_broken_ones(tmp_path):
+    import xml.etree.ElementTree as ET
+
+    from ffrf_advisor.io import read_body
+    lam = np.array(read_body(SAMPLE).eigenvalues)
+    lam[0] = 0.0
+    broken = _body_with_eigenvalues(tmp_path, "zero", lam)
+    missing = tmp_path / "missing.ffrf.h5"
+    junit = tmp_path / "gate.xml"
+    result = runner.invoke(app, ["gate", str(SAMPLE), str(broken), str(missing), "--max-level", "IV",
+                                 "--junit", str(junit)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    cases = ET.parse(junit).getroot().findall("testcase")
+    assert [c.get("name") for c in cases] == [str(SAMPLE), str(broken), str(missing)]
+    assert cases[0].find("error") is None and cases[1].find("error") is not None and cases[2].find("error") is not None
+
+
+@pytest.mark.parametrize("content, message", [('sigma_allow = "abc"\n', "--sigma-allow"),
+                                              ("thresholds = 5\n", "config thresholds"),
+                                              ("f_sys = 0\n", "--f-sys")])
+def test_config_values_of_the_wrong_type_are_one_line(tmp_path, content, message):
+    cfg = tmp_path / "ffrf-advisor.toml"
+    cfg.write_text(content)
+    result = runner.invoke(app, ["analyze", str(SAMPLE), "--config", str(cfg)])
+    assert result.exit_code == 2 and message in result.output and len(result.output.strip().splitlines()) == 1

@@ -73,6 +73,13 @@ class ModalFE:
         )
 
 
+def _per_mode(a: np.ndarray | None, ix: np.ndarray, axes: int) -> np.ndarray | None:
+    """``a`` with its last axis (axes = 1) or last two axes (axes = 2, mode x mode) taken at ``ix``."""
+    if a is None:
+        return None
+    return a[..., ix] if axes == 1 else a[..., ix, :][..., ix]
+
+
 @dataclass(frozen=True)
 class FlexibleBody:
     """One flexible body: shape integrals, eigenvalues lambda_p = Omega_p^2, modal stress, units.
@@ -160,14 +167,19 @@ class FlexibleBody:
         """The body with its first ``nf`` modes only (every quantity per mode truncated alike)."""
         if not 1 <= nf <= self.nf:
             raise ValueError(f"first_modes: expected 1 to {self.nf} modes, got {nf}")
+        return self.with_modes(np.arange(nf))
+
+    def with_modes(self, index) -> "FlexibleBody":
+        """The body with the modes ``index`` (a selection or a reordering), every per-mode quantity alike."""
+        ix = np.asarray(index, dtype=int)
         ints = self.integrals
-        cut = lambda a, axes: None if a is None else a[(slice(None),) * (a.ndim - axes) + (slice(nf),) * axes]  # noqa: E731
-        integrals = replace(ints, Ibar=cut(ints.Ibar, 1), mode_sum=cut(ints.mode_sum, 1),
-                            Sbar=cut(ints.Sbar, 2), spin=cut(ints.spin, 2))
-        fe = None if self.fe is None else replace(self.fe, Phi=self.fe.Phi[:, :, :nf],
-                                                  stress_nodal=cut(self.fe.stress_nodal, 1))
-        return replace(self, integrals=integrals, eigenvalues=self.eigenvalues[:nf],
-                       sigma_max=cut(self.sigma_max, 1), fe=fe)
+        take = lambda a, axes: _per_mode(a, ix, axes)  # noqa: E731
+        integrals = replace(ints, Ibar=take(ints.Ibar, 1), mode_sum=take(ints.mode_sum, 1),
+                            Sbar=take(ints.Sbar, 2), spin=take(ints.spin, 2))
+        fe = None if self.fe is None else replace(self.fe, Phi=self.fe.Phi[:, :, ix],
+                                                  stress_nodal=take(self.fe.stress_nodal, 1))
+        return replace(self, integrals=integrals, eigenvalues=self.eigenvalues[ix],
+                       sigma_max=take(self.sigma_max, 1), fe=fe)
 
     def converted(self, units: Units) -> "FlexibleBody":
         """The same body in other units; every conversion factor is exact up to one rounding."""

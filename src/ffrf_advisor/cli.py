@@ -40,14 +40,21 @@ EXIT_BAD_INPUT = 2
 
 
 def handles_errors(fn):
-    """Report FFRFError (bad input) as one line on stderr with exit code 2, no traceback."""
+    """Report FFRFError (bad input) as one line on stderr with exit code 2, no traceback; any other error
+    after reading (numerics a body provokes, a full disk) likewise, named by its type, so exit 1 keeps its
+    one meaning (gate: a body exceeds its level)."""
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         try:
             return fn(*args, **kwargs)
         except FFRFError as e:
-            err.print(f"error: {e}", markup=False, highlight=False, soft_wrap=True)
-            raise typer.Exit(EXIT_BAD_INPUT) from None
+            message = str(e)
+        except (typer.Exit, typer.Abort, KeyboardInterrupt, SystemExit):
+            raise
+        except Exception as e:  # noqa: BLE001 - the promise is one line and exit 2 for whatever a file provokes
+            message = f"unexpected {type(e).__name__}: {' '.join(str(e).split())[:300]}"
+        err.print(f"error: {message}", markup=False, highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_INPUT) from None
     return wrapper
 
 

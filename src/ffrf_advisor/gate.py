@@ -21,8 +21,9 @@ def gate_one(path: str, options: Options, max_level: str) -> dict:
     """One body's gate record; bad input becomes an 'error' entry instead of an exception."""
     try:
         result = analysis_json(analyze(read_body(path, load_fe=True), options), path)
-    except FFRFError as e:
-        return {"file": path, "level": None, "within": False, "error": str(e), "evidence": [], "warnings": [],
+    except Exception as e:  # noqa: BLE001 - one broken body is reported, never ends the run
+        message = str(e) if isinstance(e, FFRFError) else f"{path}: unexpected {type(e).__name__}: {str(e)[:300]}"
+        return {"file": path, "level": None, "within": False, "error": message, "evidence": [], "warnings": [],
                 "analysis": None}
     evidence = [f"rule {r['rule']} {r['name']}: {r['reason']}" for r in result["rules"]
                 if r["fired"] and r["rule"] != "I"]

@@ -133,6 +133,8 @@ def _validated(cfg: dict, path: Path) -> dict:
     if unknown:
         raise FFRFError(f"{path}: config: unknown key(s) {sorted(unknown)}; expected {sorted(CONFIG_KEYS)}")
     thresholds = cfg.get("thresholds", {})
+    if not isinstance(thresholds, dict):
+        raise FFRFError(f"{path}: config thresholds: expected a table [thresholds] of NAME = NUMBER, got {thresholds!r}")
     bad = set(thresholds) - set(THRESHOLDS)
     if bad:
         raise FFRFError(f"{path}: config thresholds: unknown {sorted(bad)}; expected {sorted(THRESHOLDS)}")

@@ -2,8 +2,10 @@
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
+
+import numpy as np
 
 from ..body import FlexibleBody
 from ..errors import BodyFileError, FFRFError
@@ -59,12 +61,31 @@ def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> Fle
     if not os.path.isfile(path):
         raise BodyFileError(path, "file", "an existing file", "not found")
     try:
-        return f.read(path, **options)
+        body = f.read(path, **options)
     except FFRFError:
         raise
     except UNFORESEEN as e:
         raise BodyFileError(path, "file", f"a readable {f.name} file",
                             f"{type(e).__name__}: {str(e)[:160]}") from None
+    return flexible_modes_in_order(body, path)
+
+
+def flexible_modes_in_order(body: FlexibleBody, path) -> FlexibleBody:
+    """At least one mode, eigenvalues finite and positive (flexible modes only, theory section 1); unsorted
+    modes are sorted by eigenvalue, with every per-mode quantity, and the provenance says so."""
+    lam = np.asarray(body.eigenvalues)
+    if body.nf == 0:
+        raise BodyFileError(path, "eigenvalues", "at least one flexible mode", "none")
+    bad = np.flatnonzero(~np.isfinite(lam) | (lam <= 0))
+    if bad.size:
+        raise BodyFileError(path, "eigenvalues", "finite positive values (flexible modes only)",
+                            f"{lam[bad[0]]:.6g} for mode {bad[0] + 1}")
+    order = np.argsort(lam, kind="stable")
+    if np.any(order != np.arange(body.nf)):
+        body = body.with_modes(order)
+        body = replace(body, provenance=body.provenance.with_note(
+            "modes sorted by eigenvalue on reading (the file's order was " + " ".join(str(i + 1) for i in order) + ")"))
+    return body
 
 
 def write_body(body: FlexibleBody, path: str | os.PathLike, fmt: str | None = None,

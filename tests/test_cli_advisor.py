@@ -69,7 +69,7 @@ def test_gate_exit_codes_and_junit(tmp_path):
                                "--jobs", "2"])
     assert over.exit_code == 1
     suite = ET.parse(junit).getroot()
-    failures = suite.findall("testcase/failure")
+    failures = suite.findall("testsuite/testcase/failure")
     assert len(failures) == 2 and "dI_Q" in failures[0].text and "exceeds II" in failures[0].get("message")
 
     junk = tmp_path / "junk.ffrf.h5"
@@ -125,7 +125,7 @@ def test_an_assumption_failure_is_a_warning_in_analyze_json_and_in_gate_junit(tm
     junit = tmp_path / "gate.xml"
     gate = runner.invoke(app, ["gate", str(path), "--max-level", "IV", "--junit", str(junit)])
     assert gate.exit_code == 0
-    assert "mass_normalisation failed" in ET.parse(junit).getroot().find("testcase").find("system-out").text
+    assert "mass_normalisation failed" in next(ET.parse(junit).getroot().iter("testcase")).find("system-out").text
     good = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--json"]).output)
     assert all(c["passed"] for c in good["checks"]) and not any("check" in w for w in good["warnings"])
 
@@ -192,7 +192,7 @@ def test_gate_reports_every_body_of_a_mix_of_good_and_broken_ones(tmp_path):
     result = runner.invoke(app, ["gate", str(SAMPLE), str(broken), str(missing), "--max-level", "IV",
                                  "--junit", str(junit)])
     assert result.exit_code == 2 and "Traceback" not in result.output
-    cases = ET.parse(junit).getroot().findall("testcase")
+    cases = list(ET.parse(junit).getroot().iter("testcase"))
     assert [c.get("name") for c in cases] == [str(SAMPLE), str(broken), str(missing)]
     assert cases[0].find("error") is None and cases[1].find("error") is not None and cases[2].find("error") is not None
 
@@ -205,3 +205,33 @@ def test_config_values_of_the_wrong_type_are_one_line(tmp_path, content, message
     cfg.write_text(content)
     result = runner.invoke(app, ["analyze", str(SAMPLE), "--config", str(cfg)])
     assert result.exit_code == 2 and message in result.output and len(result.output.strip().splitlines()) == 1
+
+
+
+def test_junit_is_valid_xml_with_testsuites_and_times_and_never_replaces_an_input_or_a_special_file(tmp_path):
+    import os
+    junit = tmp_path / "gate.xml"
+    odd = tmp_path / "beam\x01odd.ffrf.h5"
+    odd.write_bytes(SAMPLE.read_bytes())
+    result = runner.invoke(app, ["gate", str(SAMPLE), str(odd), "--max-level", "iv", "--junit", str(junit)])
+    assert result.exit_code == 0, result.output
+    root = ET.parse(junit).getroot()
+    assert root.tag == "testsuites" and root.find("testsuite").get("tests") == "2"
+    assert all(float(c.get("time")) > 0 for c in root.iter("testcase"))
+    copy = tmp_path / "copy.ffrf.h5"
+    copy.write_bytes(SAMPLE.read_bytes())
+    stamp = copy.stat().st_mtime_ns
+    same = runner.invoke(app, ["gate", str(copy), "--max-level", "IV", "--junit", str(copy)])
+    assert same.exit_code == 2 and "body of this run" in same.output and copy.stat().st_mtime_ns == stamp
+    notes = tmp_path / "notes.txt"
+    notes.write_text("mine")
+    mine = runner.invoke(app, ["gate", str(SAMPLE), "--max-level", "IV", "--junit", str(notes)])
+    assert mine.exit_code == 2 and "not a JUnit report" in mine.output and notes.read_text() == "mine"
+    link = tmp_path / "link.xml"
+    os.symlink(notes, link)
+    linked = runner.invoke(app, ["gate", str(SAMPLE), "--max-level", "IV", "--junit", str(link), "--force"])
+    assert linked.exit_code == 2 and "regular file" in linked.output and notes.read_text() == "mine"
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    special = runner.invoke(app, ["convert", str(SAMPLE), str(fifo), "--to", "ffrf-h5", "--force"])
+    assert special.exit_code == 2 and "regular file" in special.output

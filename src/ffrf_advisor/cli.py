@@ -15,7 +15,7 @@ from .amplitudes import AmplitudeOptions
 from .analysis import Options, analyze as run_analysis, check_options
 from .checks import run_checks
 from .errors import FFRFError
-from .gate import run_gate, write_junit
+from .gate import check_junit_target, run_gate, write_junit
 from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, parse_speed
 from .io import format_of, formats, read_body, write_body
 from .io.atomic import atomic_path
@@ -31,7 +31,7 @@ from .verify.checks import SCENES, check_verify_options
 from .solver_settings import SOLVERS, adams_settings
 from .terms import parse_terms
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
+app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,  # help texts keep [units]
                   help="Which FFRF inertia terms does a flexible body need? Advice with evidence.")
 out = Console()
 err = Console(stderr=True)
@@ -194,11 +194,15 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
          speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
          threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
          junit: Optional[Path] = typer.Option(None, "--junit", help="Write JUnit XML here."),
+         force: bool = typer.Option(False, "--force", help="Let --junit replace a file that is not a JUnit report."),
          jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Bodies analysed in parallel."),
          as_json: AsJson = False):
     """CI gate: exit 0 when every body's level is within --max-level, 1 when one is not, 2 on bad input."""
+    max_level = max_level.strip().upper()
     if max_level not in LEVELS:
         raise FFRFError(f"--max-level {max_level!r}: expected one of {', '.join(LEVELS)}")
+    if junit is not None:
+        check_junit_target(junit, bodies, force)
     options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config,
                             spin_axis=spin_axis)
     results = run_gate([str(b) for b in bodies], options, max_level, jobs, err)

@@ -1,6 +1,7 @@
 """The CI gate: analyse many bodies (in parallel) and compare their level with the model's."""
 from __future__ import annotations
 
+import time
 import xml.etree.ElementTree as ET
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -18,7 +19,13 @@ PROGRESS_FROM = 5  # show a progress bar from this many bodies on
 
 
 def gate_one(path: str, options: Options, max_level: str) -> dict:
-    """One body's gate record; bad input becomes an 'error' entry instead of an exception."""
+    """One body's gate record with its wall time; bad input becomes an 'error' entry instead of an exception."""
+    start = time.perf_counter()
+    record = _gate_record(path, options, max_level)
+    return {**record, "time": time.perf_counter() - start}
+
+
+def _gate_record(path: str, options: Options, max_level: str) -> dict:
     try:
         result = analysis_json(analyze(read_body(path, load_fe=True), options), path)
     except Exception as e:  # noqa: BLE001 - one broken body is reported, never ends the run
@@ -49,19 +56,48 @@ def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, cons
             return [f.result() for f in futures]
 
 
+def check_junit_target(path: Path, inputs: list[Path], force: bool) -> None:
+    """The JUnit report never replaces a body of the same run, and replaces another file only when it is a
+    JUnit report already or with --force."""
+    target = Path(path)
+    if any(target.exists() and Path(i).exists() and target.samefile(i) for i in inputs):
+        raise FFRFError(f"{target}: --junit names a body of this run; refusing to overwrite it")
+    if target.is_file() and not force and not _is_junit(target):
+        raise FFRFError(f"{target}: exists and is not a JUnit report; refusing to overwrite (use --force)")
+
+
+def _is_junit(path: Path) -> bool:
+    try:
+        return ET.parse(path).getroot().tag in ("testsuites", "testsuite")
+    except (ET.ParseError, OSError, ValueError):
+        return False
+
+
+def _xml_text(text: str) -> str:
+    """Text XML 1.0 can carry: control characters and lone surrogates (undecodable file names) replaced."""
+    return "".join(c if (c in "\t\n\r" or " " <= c <= "\ud7ff" or "\ue000" <= c <= "\ufffd") else "\ufffd"
+                   for c in str(text))
+
+
 def write_junit(results: list[dict], max_level: str, path: Path) -> None:
-    """JUnit XML: one test case per body; failure text is the deciding evidence; every warning of the body
-    goes to the case's system-out (and into the failure text), so a pass decided without some measure says so."""
-    suite = ET.Element("testsuite", name="ffrf-advisor gate", tests=str(len(results)),
-                       failures=str(sum(1 for r in results if not r["error"] and not r["within"])),
-                       errors=str(sum(1 for r in results if r["error"])))
+    """JUnit XML: <testsuites> with one <testsuite>, one test case per body (with its time); failure text is
+    the deciding evidence; every warning of the body goes to the case's system-out (and into the failure
+    text), so a pass decided without some measure says so. Names and texts are made valid XML."""
+    failures = sum(1 for r in results if not r["error"] and not r["within"])
+    errors = sum(1 for r in results if r["error"])
+    total = f"{sum(r.get('time', 0.0) for r in results):.3f}"
+    root = ET.Element("testsuites", name="ffrf-advisor gate", tests=str(len(results)), failures=str(failures),
+                      errors=str(errors), time=total)
+    suite = ET.SubElement(root, "testsuite", name="ffrf-advisor gate", tests=str(len(results)),
+                          failures=str(failures), errors=str(errors), time=total)
     for r in results:
-        case = ET.SubElement(suite, "testcase", classname="ffrf-advisor.gate", name=r["file"])
+        case = ET.SubElement(suite, "testcase", classname="ffrf-advisor.gate", name=_xml_text(r["file"]),
+                             time=f"{r.get('time', 0.0):.3f}")
         if r["error"]:
-            ET.SubElement(case, "error", message=r["error"]).text = r["error"]
+            ET.SubElement(case, "error", message=_xml_text(r["error"])).text = _xml_text(r["error"])
         elif not r["within"]:
             failure = ET.SubElement(case, "failure", message=f"level {r['level']} exceeds {max_level}")
-            failure.text = "\n".join(r["evidence"] + [f"warning: {w}" for w in r["warnings"]])
+            failure.text = _xml_text("\n".join(r["evidence"] + [f"warning: {w}" for w in r["warnings"]]))
         if r["warnings"]:
-            ET.SubElement(case, "system-out").text = "\n".join(f"warning: {w}" for w in r["warnings"])
-    ET.ElementTree(suite).write(path, encoding="utf-8", xml_declaration=True)
+            ET.SubElement(case, "system-out").text = _xml_text("\n".join(f"warning: {w}" for w in r["warnings"]))
+    ET.ElementTree(root).write(path, encoding="utf-8", xml_declaration=True)

@@ -14,6 +14,9 @@ from ..errors import FFRFError
 def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
     """Yield a temporary path; on success it replaces ``target``, on failure it is removed."""
     target = Path(target)
+    if target.is_symlink() or (target.exists() and not target.is_file()):
+        kind = "symbolic link" if target.is_symlink() else "directory" if target.is_dir() else "special file"
+        raise FFRFError(f"{target}: expected a regular file to write, got a {kind}")
     if target.exists() and not overwrite:
         raise FFRFError(f"{target}: exists; refusing to overwrite (use --force)")
     if not target.parent.is_dir():

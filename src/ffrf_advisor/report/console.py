@@ -7,12 +7,18 @@ from contextlib import contextmanager
 
 import numpy as np
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 from ..body import FlexibleBody
 from ..checks import Check
 from ..sim.cost import cost_ratio
+
+
+def _unit(text: str) -> str:
+    """``[text]`` escaped, so that rich prints a unit in brackets instead of reading it as markup."""
+    return escape(f"[{text}]")
 
 
 def _matrix(a: np.ndarray) -> str:
@@ -28,12 +34,12 @@ def body_summary(console: Console, body: FlexibleBody, checks: list[Check]) -> N
         console.print(f"  {note}")
     console.print(f"mass      {body.mass:.6e} {u.mass}")
     console.print(f"CoM       [{', '.join(f'{x:.4e}' for x in body.com)}] {u.length}")
-    console.print(f"I0 [{u.mass} {u.length}^2]\n{_matrix(body.I0)}")
+    console.print(f"I0 {_unit(f'{u.mass} {u.length}^2')}\n{_matrix(body.I0)}")
     modes = Table(title=f"{body.nf} flexible modes")
     modes.add_column("mode", justify="right")
-    modes.add_column(f"f [1/{u.time}]", justify="right")
-    modes.add_column(f"lambda [1/{u.time}^2]", justify="right")
-    modes.add_column(f"sigma_vM,max at q=1 [{u.stress}]", justify="right")
+    modes.add_column(f"f {_unit(f'1/{u.time}')}", justify="right")
+    modes.add_column(f"lambda {_unit(f'1/{u.time}^2')}", justify="right")
+    modes.add_column(f"sigma_vM,max at q=1 {_unit(u.stress)}", justify="right")
     for p in range(body.nf):
         sigma = "-" if body.sigma_max is None else f"{body.sigma_max[p]:.4e}"
         modes.add_row(str(p + 1), f"{body.frequencies_hz[p]:.4f}", f"{body.eigenvalues[p]:.6e}", sigma)
@@ -78,7 +84,8 @@ def analysis_summary(console: Console, a) -> None:
         console.print(f"[yellow]warning[/yellow]: {w}")
     t = Table(title=f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "
                     f"sigma_allow {amp.sigma_allow:.4g} {u.stress})")
-    for col in ("mode", f"f [1/{u.time}]", "q_max", "governs", "sigma/sigma_allow", "deflection/L"):
+    for col in ("mode", f"f {_unit(f'1/{u.time}')}", f"q_max {_unit(f'sqrt({u.mass}) {u.length}')}", "governs",
+                "sigma/sigma_allow", "deflection/L"):
         t.add_column(col, justify="left" if col == "governs" else "right")
     for p in range(b.nf):
         t.add_row(str(p + 1), f"{b.frequencies_hz[p]:.4g}", f"{amp.q_max[p]:.4e}", amp.governs[p],
@@ -86,7 +93,7 @@ def analysis_summary(console: Console, a) -> None:
                   "-" if amp.deflection_ratio is None else f"{amp.deflection_ratio[p]:.3g}")
     console.print(t)
     m = Table(title=f"significance per axis (max over the first {sig.n_ratio} modes; theory 7)")
-    for col in ("axis", "dI_L", "dI_Q", "dI_fT", "s_crit [rad/" + u.time + "]"):
+    for col in ("axis", "dI_L", "dI_Q", "dI_fT", f"s_crit {_unit(f'rad/{u.time}')}"):
         m.add_column(col, justify="right")
     for k in range(3):
         m.add_row(str(k + 1), *(_max(sig.max_first(name), k) for name in ("dI_L", "dI_Q", "dI_fT")),
@@ -184,7 +191,7 @@ def verification_report(console: Console, d: dict) -> None:
         ref = scene["reference"]["self_error"]
         t = Table(title=f"{scene['label']}: {scene['text']}; reference self-convergence "
                         f"{max(x for x in ref.values() if x is not None):.1e}")
-        for col in ("set", "w", "angle [rad]", "q", "stress", "ok", "speed-up"):
+        for col in ("set", "w", f"angle {_unit('rad')}", "q", "stress", "ok", "speed-up"):
             t.add_column(col, justify="left" if col == "set" else "right")
         for r in (r for r in d["results"] if r["scene"] == scene["label"]):
             e = r["errors"]

@@ -114,3 +114,21 @@ def test_calculix_files_pass_their_checks_at_their_own_precision(jobs, job, digi
     assert all(c.passed for c in checks), [(c.name, c.value, c.tolerance) for c in checks if not c.passed]
     normalisation = next(c for c in checks if c.name == "mass_normalisation")
     assert normalisation.tolerance == pytest.approx(10.0 ** (1 - digits)) and str(digits) in normalisation.precision
+
+
+def test_a_truncated_or_nan_ascii_result_block_is_refused(jobs, tmp_path):
+    """A result block that lost records (or holds NaN) was read with zeros; now it names the block."""
+    text = jobs["ascii"].read_text()
+    lines = text.splitlines(keepends=True)
+    first = next(i for i, line in enumerate(lines) if line.startswith(" -4  DISP"))
+    record = next(i for i in range(first, len(lines)) if lines[i].startswith(" -1"))
+    cut = tmp_path / "cut.frd"
+    cut.write_text("".join(lines[:record] + lines[record + 1:]))
+    with pytest.raises(BodyFileError, match="DISP.*truncated"):
+        read_body(cut)
+    nan = tmp_path / "nan.frd"
+    line = lines[record]
+    lines[record] = line[:13] + "         nan" + line[25:]
+    nan.write_text("".join(lines))
+    with pytest.raises(BodyFileError, match="finite values"):
+        read_body(nan)

@@ -177,3 +177,26 @@ def test_gate_shows_that_a_pass_was_decided_without_measures(tmp_path, beam):
     assert "warning: decided without dI_Q" in result.output
     case = next(ET.parse(junit).getroot().iter("testcase"))
     assert case.find("failure") is None and "decided without dI_Q" in case.find("system-out").text
+
+
+def test_duplicate_keys_and_a_boolean_version_are_refused(tmp_path, beam):
+    doc = document(beam)
+    path = _write(tmp_path / "dup.ffinv.json", doc)
+    text = path.read_text()
+    path.write_text(text.replace('"n_modes"', '"n_modes": 3, "n_modes"', 1))
+    with pytest.raises(BodyFileError, match="duplicate key 'n_modes'"):
+        read_body(path)
+    doc["version"] = True
+    with pytest.raises(BodyFileError, match="version"):
+        read_body(_write(tmp_path / "bool.ffinv.json", doc))
+
+
+def test_directories_and_fifos_are_not_bodies(tmp_path):
+    import os
+    folder = tmp_path / "dir.ffinv.json"
+    folder.mkdir()
+    fifo = tmp_path / "fifo.ffinv.json"
+    os.mkfifo(fifo)
+    for path, kind in ((folder, "a directory"), (fifo, "special file")):
+        result = runner.invoke(app, ["info", str(path)])
+        assert result.exit_code == 2 and kind in result.output and len(result.output.strip().splitlines()) == 1

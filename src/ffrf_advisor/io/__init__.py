@@ -59,7 +59,9 @@ def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> Fle
     """
     f = format_of(path, fmt)
     if not os.path.isfile(path):
-        raise BodyFileError(path, "file", "an existing file", "not found")
+        kind = ("a directory" if os.path.isdir(path) else "a special file (device, FIFO or socket)"
+                if os.path.exists(path) else "not found")
+        raise BodyFileError(path, "file", "an existing regular file", kind)
     try:
         body = f.read(path, **options)
     except FFRFError:

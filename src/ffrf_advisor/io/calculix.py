@@ -177,6 +177,10 @@ class _Frd:
         else:
             ids, values = self._ascii_records(fmt, ncomp, name)
             self.digits = min(self.digits, ASCII_DIGITS)
+        if len(ids) != count:
+            self.fail(name or "100C", f"{count} node records as the block header declares", f"{len(ids)} (truncated)")
+        if not np.all(np.isfinite(values)):
+            self.fail(name or "100C", "finite values", "NaN or infinity")
         self.frequencies[self.mode] = frequency
         self.results[(self.mode, name)] = (ids, values)
 

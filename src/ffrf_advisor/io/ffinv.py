@@ -92,10 +92,27 @@ def write_h5(body: FlexibleBody, path, overwrite: bool = False, I8_sign: str = "
 
 
 # ---------------------------------------------------------------- reading
+class DuplicateKey(ValueError):
+    pass
+
+
+def _unique_keys(pairs: list) -> dict:
+    """A JSON object whose keys are unique (json would keep the last of two silently)."""
+    keys = [k for k, _ in pairs]
+    seen = set()
+    for k in keys:
+        if k in seen:
+            raise DuplicateKey(f"duplicate key {k!r}")
+        seen.add(k)
+    return dict(pairs)
+
+
 def _load_json(path) -> dict:
     try:
         with open(path, encoding="utf-8") as fh:
-            doc = json.load(fh, parse_constant=lambda c: math.nan)
+            doc = json.load(fh, parse_constant=lambda c: math.nan, object_pairs_hook=_unique_keys)
+    except DuplicateKey as e:
+        raise BodyFileError(path, "file", "a JSON object with unique keys", str(e)) from None
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as e:
         raise BodyFileError(path, "file", "a readable JSON invariants file", type(e).__name__ + f": {e}") from None
     if not isinstance(doc, dict):
@@ -173,7 +190,7 @@ def _check_header(d: _Doc) -> int:
             d.fail(key, "a value (required key)", "missing")
     if d.doc["format"] != FORMAT_NAME:
         d.fail("format", repr(FORMAT_NAME), repr(d.doc["format"]))
-    if d.doc["version"] != VERSION:
+    if isinstance(d.doc["version"], bool) or d.doc["version"] != VERSION:
         d.fail("version", str(VERSION), repr(d.doc["version"]))
     nf = d.doc["n_modes"]
     if not isinstance(nf, (int, np.integer)) or isinstance(nf, bool) or not 0 < nf <= 10000:

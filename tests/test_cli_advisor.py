@@ -235,3 +235,22 @@ def test_junit_is_valid_xml_with_testsuites_and_times_and_never_replaces_an_inpu
     os.mkfifo(fifo)
     special = runner.invoke(app, ["convert", str(SAMPLE), str(fifo), "--to", "ffrf-h5", "--force"])
     assert special.exit_code == 2 and "regular file" in special.output
+
+
+@pytest.mark.parametrize("command", ["analyze", "gate", "compare"])
+def test_every_analysing_command_takes_the_same_analysis_options(command):
+    """The README's analysis options apply to analyze, gate and compare alike (issue 14)."""
+    extra = ["--max-level", "IV", "--json"] if command == "gate" else ["--json"]
+    args = ["--speed", "100", "--sigma-allow", "250", "--q-cap", "0.5", "--n-ratio", "6", "--spin-axis", "3",
+            "--threshold", "dI_Q=0.5"]
+    result = runner.invoke(app, [command, str(SAMPLE), *extra, *args])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.output)
+    body = data["bodies"][0] if command != "analyze" else data
+    if command == "gate":
+        body = body["analysis"]
+    if command == "compare":
+        assert body["q_max"][0] == pytest.approx(min(0.5, 250.0 / body["sigma_max"][0]), rel=1e-12)
+    else:
+        assert body["amplitudes"]["sigma_allow"] == 250.0 and body["significance"]["n_ratio"] == 6
+        assert body["situation"]["spin_axis"] == [0.0, 0.0, 1.0] and "inertia_quad" not in body["terms"]

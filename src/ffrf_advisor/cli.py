@@ -114,11 +114,16 @@ Density = Annotated[Optional[float], typer.Option(
     "--density", help="meshio meshes: density [t/mm^3] (else field data).")]
 
 
+def _mesh_options(eigenvalues: str | None, density: float | None) -> dict:
+    """--eigenvalues/--density as reader options (meshio meshes only)."""
+    return {k: v for k, v in (("eigenvalues", _numbers("--eigenvalues", eigenvalues)), ("density", density))
+            if v is not None}
+
+
 def _read(path: Path, eigenvalues: str | None = None, density: float | None = None, fmt: str | None = None,
           load_fe: bool = True):
     """Read any format; --eigenvalues/--density go to the meshio reader only."""
-    mesh_options = {k: v for k, v in (("eigenvalues", _numbers("--eigenvalues", eigenvalues)),
-                                      ("density", density)) if v is not None}
+    mesh_options = _mesh_options(eigenvalues, density)
     if mesh_options and format_of(path, fmt).name != "meshio":
         raise FFRFError(f"{path}: --{'/--'.join(mesh_options)} apply to meshio meshes only")
     return read_body(path, fmt, load_fe=load_fe, **mesh_options)
@@ -192,7 +197,9 @@ def analyze(body: Path = typer.Argument(..., help="Body file."), speed: Speed = 
 def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
          max_level: str = typer.Option(..., "--max-level", help="Highest level the model implements: I-IV."),
          speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
-         threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
+         sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
+         n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
+         eigenvalues: Eigenvalues = None, density: Density = None,
          junit: Optional[Path] = typer.Option(None, "--junit", help="Write JUnit XML here."),
          force: bool = typer.Option(False, "--force", help="Let --junit replace a file that is not a JUnit report."),
          jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Bodies analysed in parallel."),
@@ -203,9 +210,9 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
         raise FFRFError(f"--max-level {max_level!r}: expected one of {', '.join(LEVELS)}")
     if junit is not None:
         check_junit_target(junit, bodies, force)
-    options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config,
-                            spin_axis=spin_axis)
-    results = run_gate([str(b) for b in bodies], options, max_level, jobs, err)
+    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
+                            n_ratio, threshold, config, spin_axis)
+    results = run_gate([str(b) for b in bodies], options, max_level, jobs, err, _mesh_options(eigenvalues, density))
     if junit is not None:
         with atomic_path(junit, overwrite=True) as tmp:
             write_junit(results, max_level, tmp)
@@ -227,10 +234,14 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
 @app.command()
 @handles_errors
 def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed: Speed = None,
-            f_sys: FSys = None, connection: Connection = None, config: Config = None, as_json: AsJson = False):
+            f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
+            sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
+            n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
+            eigenvalues: Eigenvalues = None, density: Density = None, as_json: AsJson = False):
     """Paper-style comparison of bodies: frequencies, stress, q_max, inertia, coupling and norm ratios."""
-    options = build_options(speed, f_sys, connection, config=config)
-    analyses = [run_analysis(read_body(b, load_fe=True), options) for b in bodies]
+    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
+                            n_ratio, threshold, config, spin_axis)
+    analyses = [run_analysis(_read(b, eigenvalues, density), options) for b in bodies]
     data = comparison(analyses, [str(b) for b in bodies])
     if as_json:
         print(json.dumps(data, indent=1))

@@ -12,22 +12,24 @@ from rich.progress import Progress
 from .analysis import Options, analyze
 from .errors import FFRFError
 from .guidelines import LEVELS
-from .io import read_body
+from .io import format_of, read_body
 from .report.json_out import analysis_json
 
 PROGRESS_FROM = 5  # show a progress bar from this many bodies on
 
 
-def gate_one(path: str, options: Options, max_level: str) -> dict:
+def gate_one(path: str, options: Options, max_level: str, read_options: dict | None = None) -> dict:
     """One body's gate record with its wall time; bad input becomes an 'error' entry instead of an exception."""
     start = time.perf_counter()
-    record = _gate_record(path, options, max_level)
+    record = _gate_record(path, options, max_level, read_options or {})
     return {**record, "time": time.perf_counter() - start}
 
 
-def _gate_record(path: str, options: Options, max_level: str) -> dict:
+def _gate_record(path: str, options: Options, max_level: str, read_options: dict) -> dict:
     try:
-        result = analysis_json(analyze(read_body(path, load_fe=True), options), path)
+        if read_options and format_of(path).name != "meshio":
+            raise FFRFError(f"{path}: --{'/--'.join(read_options)} apply to meshio meshes only")
+        result = analysis_json(analyze(read_body(path, load_fe=True, **read_options), options), path)
     except Exception as e:  # noqa: BLE001 - one broken body is reported, never ends the run
         message = str(e) if isinstance(e, FFRFError) else f"{path}: unexpected {type(e).__name__}: {str(e)[:300]}"
         return {"file": path, "level": None, "within": False, "error": message, "evidence": [], "warnings": [],
@@ -39,18 +41,19 @@ def _gate_record(path: str, options: Options, max_level: str) -> dict:
             "within": LEVELS.index(result["level"]) <= LEVELS.index(max_level)}
 
 
-def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, console: Console) -> list[dict]:
+def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, console: Console,
+             read_options: dict | None = None) -> list[dict]:
     show = len(paths) >= PROGRESS_FROM
     with Progress(console=console, disable=not show, transient=True) as progress:
         task = progress.add_task("analysing bodies", total=len(paths))
         if jobs == 1:
             results = []
             for p in paths:
-                results.append(gate_one(p, options, max_level))
+                results.append(gate_one(p, options, max_level, read_options))
                 progress.advance(task)
             return results
         with ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = [pool.submit(gate_one, p, options, max_level) for p in paths]
+            futures = [pool.submit(gate_one, p, options, max_level, read_options) for p in paths]
             for f in futures:
                 f.add_done_callback(lambda _: progress.advance(task))
             return [f.result() for f in futures]

@@ -17,7 +17,7 @@ from .checks import run_checks
 from .errors import FFRFError
 from .gate import check_junit_target, run_gate, write_junit
 from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, parse_speed
-from .io import format_of, formats, read_body, write_body
+from .io import check_reader_options, format_of, formats, read_body, write_body
 from .io.atomic import atomic_path
 from .report.compare import comparison, comparison_table
 from .report.console import analysis_summary, body_summary, progress_bar, simulation_report, verification_report
@@ -124,8 +124,7 @@ def _read(path: Path, eigenvalues: str | None = None, density: float | None = No
           load_fe: bool = True):
     """Read any format; --eigenvalues/--density go to the meshio reader only."""
     mesh_options = _mesh_options(eigenvalues, density)
-    if mesh_options and format_of(path, fmt).name != "meshio":
-        raise FFRFError(f"{path}: --{'/--'.join(mesh_options)} apply to meshio meshes only")
+    check_reader_options(path, mesh_options, fmt)
     return read_body(path, fmt, load_fe=load_fe, **mesh_options)
 
 

@@ -12,7 +12,7 @@ from rich.progress import Progress
 from .analysis import Options, analyze
 from .errors import FFRFError
 from .guidelines import LEVELS
-from .io import format_of, read_body
+from .io import check_reader_options, read_body
 from .report.json_out import analysis_json
 
 PROGRESS_FROM = 5  # show a progress bar from this many bodies on
@@ -27,8 +27,7 @@ def gate_one(path: str, options: Options, max_level: str, read_options: dict | N
 
 def _gate_record(path: str, options: Options, max_level: str, read_options: dict) -> dict:
     try:
-        if read_options and format_of(path).name != "meshio":
-            raise FFRFError(f"{path}: --{'/--'.join(read_options)} apply to meshio meshes only")
+        check_reader_options(path, read_options)
         result = analysis_json(analyze(read_body(path, load_fe=True, **read_options), options), path)
     except Exception as e:  # noqa: BLE001 - one broken body is reported, never ends the run
         message = str(e) if isinstance(e, FFRFError) else f"{path}: unexpected {type(e).__name__}: {str(e)[:300]}"

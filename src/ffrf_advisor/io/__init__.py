@@ -51,6 +51,12 @@ UNFORESEEN = (OSError, ValueError, KeyError, IndexError, TypeError, RuntimeError
               ArithmeticError, AttributeError, LookupError, RecursionError)  # not MemoryError: a bug to find
 
 
+def check_reader_options(path, options: dict, fmt: str | None = None) -> None:
+    """--eigenvalues/--density (reader options) apply to meshio meshes only: one line otherwise."""
+    if options and format_of(path, fmt).name != "meshio":
+        raise FFRFError(f"{path}: --{'/--'.join(options)} apply to meshio meshes only")
+
+
 def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> FlexibleBody:
     """Read a body from any registered format.
 
@@ -101,4 +107,4 @@ def write_body(body: FlexibleBody, path: str | os.PathLike, fmt: str | None = No
 
 from . import calculix, ffinv, ffrf_h5, meshio_modes  # noqa: E402  (register themselves)
 
-__all__ = ["Format", "register", "formats", "format_of", "read_body", "write_body", "calculix", "ffinv", "ffrf_h5", "meshio_modes"]
+__all__ = ["Format", "register", "formats", "format_of", "check_reader_options", "read_body", "write_body", "calculix", "ffinv", "ffrf_h5", "meshio_modes"]

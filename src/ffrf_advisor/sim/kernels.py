@@ -53,7 +53,8 @@ def _cross_sub(a, b, out):
     out[2] -= a[0] * b[1] - a[1] * b[0]
 
 
-def workspace(nf: int) -> tuple:
+@jit
+def workspace(nf):
     """Scratch arrays of one right-hand side (J, M, G, S: 3 x 3; fr, b: 3; P: 3 x 3 x nf; C: 3 x nf),
     so that an evaluation allocates nothing."""
     return (np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3),
@@ -310,9 +311,7 @@ def rk4_loop(y0, h, nsteps, every, lie, out, flags, I0, Ibar, Sbar, W3k, lam, dm
     """
     n = y0.shape[0]
     zero3, zf = np.zeros(3), np.zeros(lam.shape[0])
-    nf = lam.shape[0]
-    work = (np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3),
-            np.empty((3, 3, nf)), np.empty((3, nf)))
+    work = workspace(lam.shape[0])
     y = y0.copy()
     ys = np.empty(n)
     k = np.empty((4, n))

@@ -18,7 +18,7 @@ from ..sim.model import build_model
 from ..terms import FULL, LEVEL_SETS
 from . import stability
 from .runner import Verification, run_scene, term_sets, verify
-from .scenes import Scene, SceneOptions, default_speed, make_scene
+from .scenes import Scene, SceneOptions, default_speed, make_scene, stable_axes
 from .workprecision import Point, pareto, work_precision
 
 CAMPBELL_POINTS = 26  # 25 intervals: no sample falls exactly on s_crit (= top / 1.2)
@@ -45,7 +45,7 @@ def campbell_data(a: Analysis, speed: float) -> dict:
     sets = {ts.label: ts.terms for ts in term_sets(a) if ts.label in CAMPBELL_SETS}
     by_axis = {k: {label: campbell(build_model(a.body, terms), np.eye(3)[k], speeds[k])[0]
                    for label, terms in sets.items()} for k in range(3)}
-    axis = int(np.argmax(np.diag(a.body.I0)))
+    axis = stable_axes(a)[0]  # the major axis: rigid spin about it is stable
     full = linearise(build_model(a.body, FULL), np.eye(3)[axis], speed).frequencies
     error = {}
     for label, terms in sets.items():
@@ -70,7 +70,7 @@ def drift_curves(a: Analysis, scene: Scene) -> dict:
 def stability_studies(a: Analysis, scene: Scene) -> dict:
     """The numbers of the stability section of the issue/theory 10: each measured beside its prediction."""
     speed = default_speed(a)
-    axis = int(np.argmax(np.diag(a.body.I0)))
+    axis = stable_axes(a)[0]  # the major axis: rigid spin about it is stable
     return {
         "rk4_limit_rest": stability.rk4_step_limit(a),
         "rk4_limit_spin": stability.rk4_step_limit(a, speed, axis),

@@ -56,17 +56,25 @@ def deciding(row: dict) -> str:
     return text
 
 
+def counts(verdicts) -> str:
+    verdicts = list(verdicts)
+    n = {v: verdicts.count(v) for v in ("agree", "conservative", "unsafe")}
+    return f"{len(verdicts)} rows: {n['agree']} agree, {n['conservative']} conservative, {n['unsafe']} unsafe"
+
+
 def table(rows: list[dict]) -> str:
-    lines = ["| body | speed [rad/s] | / s_crit | advised | advised terms | cheapest adequate | verdict | deciding worst errors |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = ["| body | speed [rad/s] | / s_crit | advice at [rad/s] | advised | advised terms | cheapest adequate "
+             "| verdict | deciding worst errors |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['body']} | {r['speed_rad_s']:.4g} | {r['fraction_of_s_crit']:g} | {r['advised_level']} | "
+        lines.append(f"| {r['body']} | {r['speed_rad_s']:.4g} | {r['fraction_of_s_crit']:g} | "
+                     f"{r['advice_speed_rad_s']:.4g} | {r['advised_level']} | "
                      f"{', '.join(t for t in r['advised_terms'] if t != 'gyro0') or '-'} | {r['cheapest'] or 'none'} | "
                      f"{r['verdict']} | {deciding(r)} |")
-    counts = {v: sum(r["verdict"] == v for r in rows) for v in ("agree", "conservative", "unsafe")}
     lines.append("")
-    lines.append(f"{len(rows)} rows: {counts['agree']} agree, {counts['conservative']} conservative, "
-                 f"{counts['unsafe']} unsafe.")
+    lines.append(f"By the {rows[0]['criterion']} errors: {counts(r['verdict'] for r in rows)}.")
+    for c in rows[0]["other_criteria"]:
+        lines.append(f"By the {c} errors: {counts(r['other_criteria'][c]['verdict'] for r in rows)}.")
     return "\n".join(lines)
 
 

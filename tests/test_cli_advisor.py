@@ -20,7 +20,7 @@ runner = CliRunner()
 
 def test_analyze_json_validates_against_the_schema():
     cases = {("III",): [], ("IV",): ["--speed", "3000rpm", "--connection", "soft"],
-             ("I",): ["--q-max", ",".join(["0.1"] * 16)]}  # dI_Q = 0.27 (0.1 / 0.53)^2 < 0.05
+             ("I",): ["--q-max", ",".join(["0.05"] * 16)]}  # dI_Q = 0.27 (0.05 / 0.53)^2 = 2.4e-3 < 0.005
     for (level,), args in cases.items():
         result = runner.invoke(app, ["analyze", str(SAMPLE), "--json", *args])
         assert result.exit_code == 0, result.output
@@ -253,4 +253,5 @@ def test_every_analysing_command_takes_the_same_analysis_options(command):
         assert body["q_max"][0] == pytest.approx(min(0.5, 250.0 / body["sigma_max"][0]), rel=1e-12)
     else:
         assert body["amplitudes"]["sigma_allow"] == 250.0 and body["significance"]["n_ratio"] == 6
-        assert body["situation"]["spin_axis"] == [0.0, 0.0, 1.0] and "inertia_quad" not in body["terms"]
+        dI_Q = next(r for r in body["rules"] if r["name"] == "dI_Q")
+        assert body["situation"]["spin_axis"] == [0.0, 0.0, 1.0] and dI_Q["threshold"] == 0.5 and not dI_Q["fired"]

@@ -92,7 +92,7 @@ def test_convert_round_trip_and_refusal(tmp_path, beam):
 
 @pytest.mark.parametrize("body, speed, formulation, pattern", [
     ("plate", "1", "constant coupling", "T:T:T:T:F:T:T:F:F"),
-    ("genstruct1", "1", "partial coupling", "T:T:T:T:F:T:T:T:F"),
+    ("carbody", "1", "partial coupling", "T:T:T:T:F:T:T:T:F"),
     ("beam", "300", "full coupling", "T:T:T:T:T:T:T:T:T"),
 ])
 def test_settings_for_adams(body, speed, formulation, pattern):

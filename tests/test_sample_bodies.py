@@ -42,10 +42,13 @@ def test_all_six_are_shipped_small_and_complete(shipped):
 
 
 def test_levels_at_moderate_speed_free_and_stiff(shipped):
-    expected = {"beam": "III", "genstruct1": "III", "plate": "I", "conrod": "I", "genstruct2": "I", "carbody": "I"}
+    # thresholds of docs/verification.md (chosen for a 1 % tolerance): genstruct2's dI_L = 0.019 > 0.005
+    # (rule III), the carbody's centrifugal stress 2 % of sigma_allow > 5e-4 (rule II)
+    expected = {"beam": "III", "genstruct1": "III", "plate": "I", "conrod": "I", "genstruct2": "III", "carbody": "II"}
     for name, body in shipped.items():
         assert _advice(body).advice.level == expected[name], name
-        assert _advice(body, "stiff").advice.level == "I", name
+        stiff = _advice(body, "stiff").advice  # rules III and IV off; widening (rule II) still counts
+        assert set(stiff.terms) <= {"gyro0", "cf1"} and stiff.level == ("II" if "cf1" in stiff.terms else "I"), name
 
 
 @pytest.mark.parametrize("name, measure, axis, term", [("beam", "dI_Q", 3, "inertia_quad"),
@@ -147,5 +150,5 @@ def test_compare_prints_the_table_and_json(shipped):
     assert set(by_name) == set(SAMPLES)
     beam = by_name["beam"]
     assert len(beam["frequencies"]) == 10 and len(beam["q_max"]) == 10 and len(beam["dI_Q"]) == 3
-    assert beam["level"] == "III" and by_name["carbody"]["level"] == "I"
+    assert beam["level"] == "III" and by_name["carbody"]["level"] == "II"
     assert beam["frequencies"][0] == pytest.approx(shipped["beam"].frequencies_hz[0], rel=1e-12)

@@ -21,7 +21,8 @@ from ffrf_advisor.sim.model import build_model
 from ffrf_advisor.significance import softening_speeds
 from ffrf_advisor.terms import FULL, LEVEL_SETS
 from ffrf_advisor.verify import stability
-from ffrf_advisor.verify.runner import verify
+from ffrf_advisor.verify.measures import QUANTITIES, RESPONSE
+from ffrf_advisor.verify.runner import for_scenes, judge, verify
 from ffrf_advisor.verify.scenes import SCENES, make_scene
 from ffrf_advisor.verify.study import drift_curves
 
@@ -72,7 +73,19 @@ def test_a_broken_advice_is_called_unsafe(beam):
     bad = replace(beam, advice=replace(beam.advice, level="I", terms=LEVEL_SETS["I"]))
     v = verify(bad, [make_scene("free-spin", bad)], repeats=1)
     assert v.verdict.verdict == "unsafe" and "FAILED" in v.verdict.text
-    assert {q for _, q, _ in v.verdict.broken} & {"q", "w", "orientation", "stress"}
+    assert {q for _, q, _ in v.verdict.broken} & set(RESPONSE)
+    strict = judge(bad, v.results, 0.01, "trajectory")
+    assert strict.verdict == "unsafe" and {q for _, q, _ in strict.broken} <= set(QUANTITIES)
+
+
+def test_the_advice_is_checked_at_the_highest_spin_of_the_scenes():
+    """At w_op = 0 the torque pulse leaves the body spinning at s_crit / 100: the advice is for that speed."""
+    a = analyze(read_body(DIR / "carbody.ffrf.h5"), Options(situation=Situation(w_op=0.0)))
+    scenes = [make_scene("torque-pulse", a)]
+    b = for_scenes(a, scenes)
+    assert b.options.situation.w_op == pytest.approx(softening_speeds(a.body).min() / 100, rel=1e-9)
+    assert a.advice.level == "I" and "cf1" in b.advice.terms
+    assert for_scenes(b, scenes) is b
 
 
 # ---------------------------------------------------------------- stability where methods fail

@@ -379,6 +379,9 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    rtol: float = typer.Option(1e-8, "--rtol", help="Relative tolerance of an adaptive integrator."),
                    repeats: int = typer.Option(3, "--repeat", help="Timed repeats (serial; the minimum counts)."),
                    axis: Optional[int] = typer.Option(None, "--axis", help="Principal axis of the scenes (1-3)."),
+                   criterion: str = typer.Option("response", "--criterion",
+                                                 help="Judge by response errors (frequencies, means, oscillation "
+                                                      "sizes, peak stress) or by trajectory errors."),
                    output: Optional[Path] = typer.Option(None, "--output", "-o", help="Directory for the figures."),
                    as_json: AsJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
                    widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
@@ -388,12 +391,13 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
     from .report.verify_json import study_json
     from .verify.study import run_study
     names = list(scene or SCENES)
-    check_verify_options(names, tolerance, integrator, step, rtol, repeats, output)
+    check_verify_options(names, tolerance, integrator, step, rtol, repeats, output, criterion)
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, threshold=threshold, config=config)
     b = _read(body)
     result = run_analysis(b, options)
     h = None if step is None else simulation_setup(b, 1.0, step, None, integrator).step
-    st = run_study(result, names, tolerance, integrator, h, rtol, repeats, output, SceneOptions(axis=axis))
+    st = run_study(result, names, tolerance, integrator, h, rtol, repeats, output, SceneOptions(axis=axis),
+                   criterion)
     data = study_json(st, str(body))
     if as_json:
         print(json.dumps(data, indent=1))

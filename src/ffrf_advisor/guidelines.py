@@ -18,14 +18,14 @@ from .terms import is_lagrangian, lagrangian_superset, ordered
 from .units import TIME
 
 THRESHOLDS = {
-    "widening_stress": 0.05,   # rule II: centrifugal stress / sigma_allow
-    "dI_L": 0.05,              # rule III
-    "dI_Q": 0.05,
-    "dI_fT": 0.05,
-    "dI_Tf": 0.05,
-    "r_cf2": 0.01,              # rule III, cf2: response measure r_cf2 at w_op (theory 7)
+    "widening_stress": 5e-4,   # rule II: centrifugal stress / sigma_allow (docs/verification.md)
+    "dI_L": 0.005,             # rule III
+    "dI_Q": 0.005,
+    "dI_fT": 0.005,
+    "dI_Tf": 0.005,
+    "r_cf2": 0.005,             # rule III, cf2: response measure r_cf2 at w_op (theory 7)
     "speed_ratio": 0.1,         # rule IV: w_op / (2 pi f_sys)
-    "r_cor": 0.01,              # rule IV, cor_quad + cor_coupling: response measure r_cor at w_op (theory 7)
+    "r_cor": 1e-4,              # rule IV, cor_quad + cor_coupling: r_cor at w_op (theory 7; docs/verification.md)
     "softening_warning": 0.5,   # warn when w_op / s_crit exceeds this
 }
 CONNECTIONS = ("free", "soft", "stiff")
@@ -209,9 +209,7 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
     rules = [Rule("I", "baseline", None, None, True, ("gyro0",), "gyroscopic term with I0 is always kept")]
     warnings = list(amp.warnings)
 
-    rule2 = _rule_II(body, amp, sit, w_op)
-    rules.append(rule2)
-    widening = bool(rule2.fired)
+    rules.append(_rule_II(body, amp, sit, w_op))
 
     measures = {"dI_L": (sig.dI_L, "inertia_lin"), "dI_Q": (sig.dI_Q, "inertia_quad"),
                 "dI_fT": (sig.dI_fT, "coupling"), "dI_Tf": (sig.dI_Tf, "coupling")}
@@ -228,7 +226,7 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
         reason = (f"max {name} = {value:.3g} {'>' if over else '<='} {thr:g}"
                   + ("; body stiffly connected: I0 suffices" if over and stiff else ""))
         rules.append(Rule("III", name, float(value), thr, fired, (term,) if fired else (), reason))
-    rules.append(_rule_cf2(body, sit, w_op, widening, stiff))  # cf2 alone does not call for Coriolis terms
+    rules.append(_rule_cf2(body, sit, w_op, stiff))  # cf2 alone does not call for Coriolis terms
 
     ratio, w = _speed_ratio(body, sit)
     warnings += w
@@ -244,20 +242,34 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
             warnings.append(f"operating speed is {r:.0%} of the centrifugal-softening limit about axis {k + 1} "
                             f"({sig.s_crit[k] / per_s:.4g} rad/s): the linear FFRF without geometric "
                             "stiffening loses validity there")
-    terms = ordered({t for r in rules for t in r.terms})
     level = max((r.rule for r in rules if r.fired and r.terms), key=LEVELS.index)
+    rules.append(_closure(ordered({t for r in rules for t in r.terms}), level, stiff))
+    terms = ordered({t for r in rules for t in r.terms})
     return Advice(level, terms, tuple(rules), tuple(warnings))
+
+
+def _closure(terms: tuple[str, ...], level: str, stiff: bool) -> Rule:
+    """Whole energy groups for a body not stiffly connected: its rotation follows from its own equations, which
+    conserve energy and angular momentum only with Lagrangian sets (theory 5; without, a free spin drifts by
+    the size of the neglected terms' partners: docs/verification.md)."""
+    closed = lagrangian_superset(terms) or terms
+    added = tuple(t for t in closed if t not in terms)
+    if stiff:
+        return Rule(level, "lagrangian_closure", None, None, False, (),
+                    "stiffly connected: the rules' set is kept as it is")
+    return Rule(level, "lagrangian_closure", None, None, bool(added), added,
+                ("whole energy groups (a free body's set must be Lagrangian): adds " + ", ".join(added)) if added
+                else "the rules' set is Lagrangian")
 
 
 def _lacking(body: FlexibleBody) -> str:
     return f"the body has no {' and no '.join(body.integrals.missing)} (e.g. an invariants file without I9)"
 
 
-def _rule_cf2(body: FlexibleBody, sit: Situation, w_op, widening: bool, stiff: bool) -> Rule:
-    """cf2 when widening matters and r_cf2 at w_op exceeds its threshold (theory 7, 8)."""
+def _rule_cf2(body: FlexibleBody, sit: Situation, w_op, stiff: bool) -> Rule:
+    """cf2 when r_cf2 at w_op exceeds its threshold (theory 7, 8): its frequency shift matters whether or not the
+    widening does (a plate spun about its normal: no in-plane stress, out-of-plane modes softened by 25 %)."""
     thr = sit.threshold("r_cf2")
-    if not widening:
-        return Rule("III", "cf2", None, thr, False, (), "widening does not matter (rule II): cf2 not needed")
     if "W2" in body.integrals.missing:
         return Rule("III", "cf2", None, thr, None, (), f"not evaluable: {_lacking(body)}")
     if w_op is None:

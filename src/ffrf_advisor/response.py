@@ -53,15 +53,26 @@ def r_cf2(body: FlexibleBody, a, s: float) -> float:
     return max(static, shift)
 
 
-def r_cor(body: FlexibleBody, a, s: float) -> float:
-    """Frequency change by cor_quad and cor_coupling at steady spin s about a (both sets linearised)."""
+def frequency_change(body: FlexibleBody, terms, reference_terms, a, s: float) -> float:
+    """``max_p |f_p(reference) - f_p(terms)| / f_p(reference)`` of the two sets linearised at steady spin s
+    about a; infinite when a mode has lost its frequency in the set only, NaN (no comparison) when in the
+    reference (the rigid tumbling about the middle axis does not count); 0 at rest (every set then has the
+    frequencies Omega)."""
     from .sim.linearise import linearise
     from .sim.model import build_model
     if s == 0:
         return 0.0
-    full = linearise(build_model(body, FULL), a, s)
-    without = linearise(build_model(body, WITHOUT_DEFORMATION_CORIOLIS), a, s)
-    if len(full.frequencies) != body.nf or len(without.frequencies) != body.nf:
-        return np.inf  # a mode has lost its frequency (the rigid tumbling about the middle axis does not count)
-    f, g = full.frequencies, without.frequencies
+    ref = linearise(build_model(body, reference_terms), a, s)
+    other = linearise(build_model(body, terms), a, s)
+    if len(ref.frequencies) != body.nf:
+        return np.nan
+    if len(other.frequencies) != body.nf:
+        return np.inf
+    f, g = ref.frequencies, other.frequencies
     return float(np.max(np.abs(f - g) / f)) if len(f) else 0.0
+
+
+def r_cor(body: FlexibleBody, a, s: float) -> float:
+    """Frequency change by cor_quad and cor_coupling at steady spin s about a (both sets linearised)."""
+    value = frequency_change(body, WITHOUT_DEFORMATION_CORIOLIS, FULL, a, s)
+    return np.inf if np.isnan(value) else value  # the full set lost a frequency: treat as significant

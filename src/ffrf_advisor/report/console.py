@@ -180,6 +180,13 @@ def _err(x) -> str:
     return "fail" if x is None else f"{x:.1e}"
 
 
+VERIFY_COLUMNS = {"response": {"w_response": "w", "q_response": "q", "stress_peak": "peak stress",
+                                "frequency": "frequency"},
+                  "trajectory": {"w": "w", "orientation": f"angle {_unit('rad')}", "q": "q", "stress": "stress"}}
+CRITERION_TEXT = {"response": "frequencies at the spin, means and oscillation sizes, peak stress",
+                  "trajectory": "pointwise along the run; phase errors count"}
+
+
 def verification_report(console: Console, d: dict) -> None:
     """The verdict on top, then per scene the errors, drift and speed-up of each set, stability and Campbell."""
     v = d["verdict"]
@@ -187,15 +194,17 @@ def verification_report(console: Console, d: dict) -> None:
     console.print(f"[bold]{d['body']['name']}[/bold]: advice level {v['advised_level']} "
                   f"[{colour}]{v['verdict'].upper()}[/{colour}]", highlight=False)
     console.print(v["text"], highlight=False)
+    console.print(f"advice at {d['advice']['speed_rad_s']:.4g} rad/s; judged by the {d['criterion']} errors "
+                  f"({CRITERION_TEXT[d['criterion']]})", highlight=False)
+    columns = VERIFY_COLUMNS[d["criterion"]]
     for scene in d["scenes"]:
         ref = scene["reference"]["self_error"]
         t = Table(title=f"{scene['label']}: {scene['text']}; reference self-convergence "
                         f"{max(x for x in ref.values() if x is not None):.1e}")
-        for col in ("set", "w", f"angle {_unit('rad')}", "q", "stress", "ok", "speed-up"):
+        for col in ("set", *columns.values(), "ok", "speed-up"):
             t.add_column(col, justify="left" if col == "set" else "right")
         for r in (r for r in d["results"] if r["scene"] == scene["label"]):
-            e = r["errors"]
-            t.add_row(r["set"], _err(e["w"]), _err(e["orientation"]), _err(e["q"]), _err(e["stress"]),
+            t.add_row(r["set"], *(_err(r["errors"][k]) for k in columns),
                       "yes" if r["meets"] else "[red]no[/red]",
                       "-" if r["speedup"] is None else f"{r['speedup']:.2f}")
         console.print(t)

@@ -10,7 +10,7 @@ from ..verify.study import Study
 from ..verify.workprecision import pareto
 from .json_out import json_number
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 
 def _clean(obj):
@@ -38,15 +38,16 @@ def study_json(st: Study, source: str) -> dict:
         "schema_version": SCHEMA_VERSION,
         "body": {"file": source, "name": a.body.name, "units": str(a.body.units), "nf": a.body.nf},
         "advice": {"level": a.advice.level, "terms": list(a.advice.terms), "lagrangian": a.advice.lagrangian,
-                   "lagrangian_superset": a.advice.lagrangian_superset},
+                   "lagrangian_superset": a.advice.lagrangian_superset, "speed_rad_s": a.options.situation.w_op},
         "tolerance": ver.tolerance,
+        "criterion": ver.criterion,
         "integrator": ver.integrator,
         "scenes": [{"name": s.name, "label": s.label, "axis": s.axis + 1, "duration": s.duration,
                     "speed_rad_s": s.speed / per_s, "damping": s.damping, "text": s.text,
                     "reference": {"integrator": "dop853", "rtol": 1e-10, "self_error": ver.references[s.label].self_error,
                                   "wall_s": ver.references[s.label].wall_s}} for s in ver.scenes],
         "results": [{"set": r.set.label, "terms": list(r.set.terms), "lagrangian": r.set.lagrangian,
-                     "scene": r.scene, "errors": r.errors, "meets": r.meets(ver.tolerance),
+                     "scene": r.scene, "errors": r.errors, "meets": r.meets(ver.tolerance, ver.criterion),
                      "energy_drift": r.energy_drift, "H_drift": r.H_drift, "wall_s": r.wall_s,
                      "rhs_evaluations": r.nfev, "failed": r.failed, "reason": r.reason, "speedup": r.speedup}
                     for r in ver.results],

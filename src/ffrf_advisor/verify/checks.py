@@ -6,11 +6,14 @@ from pathlib import Path
 
 from ..errors import FFRFError
 from ..sim.integrate import FIXED, INTEGRATORS
+from .measures import CRITERIA
 from .scenes import SCENES
 
 
 def check_verify_options(scenes, tolerance: float, integrator: str, step: float | None, rtol: float,
-                         repeats: int, output: Path | None) -> None:
+                         repeats: int, output: Path | None, criterion: str = "response") -> None:
+    if criterion not in CRITERIA:
+        raise FFRFError(f"--criterion {criterion!r}: expected one of {', '.join(CRITERIA)}")
     unknown = [s for s in scenes if s not in SCENES]
     if unknown:
         raise FFRFError(f"--scene {unknown[0]!r}: expected one of {', '.join(SCENES)}")

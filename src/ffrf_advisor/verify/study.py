@@ -17,7 +17,7 @@ from ..sim.linearise import campbell, linearise
 from ..sim.model import build_model
 from ..terms import FULL, LEVEL_SETS
 from . import stability
-from .runner import Verification, run_scene, term_sets, verify
+from .runner import Verification, for_scenes, run_scene, term_sets, verify
 from .scenes import Scene, SceneOptions, default_speed, make_scene, stable_axes
 from .workprecision import Point, pareto, work_precision
 
@@ -84,10 +84,11 @@ def stability_studies(a: Analysis, scene: Scene) -> dict:
 
 def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str = "dop853",
               step: float | None = None, rtol: float = 1e-8, repeats: int = 3, directory: Path | None = None,
-              scene_options: SceneOptions = SceneOptions()) -> Study:
+              scene_options: SceneOptions = SceneOptions(), criterion: str = "response") -> Study:
     """Everything ``verify`` reports; figures go to ``directory`` when given."""
     scenes = [make_scene(n, a, scene_options) for n in scene_names]
-    ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats)
+    a = for_scenes(a, scenes)
+    ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion)
     first = scenes[0]
     points = work_precision(a, first, ver.references[first.label],
                             tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)

@@ -17,8 +17,8 @@ import numpy as np
 from ..analysis import Options, analyze
 from ..guidelines import Situation
 from ..io import read_body
-from .measures import worst
-from .runner import verify
+from .measures import CRITERIA, worst
+from .runner import for_scenes, judge, verify
 from .scenes import SceneOptions, make_scene
 
 SCHEDULER_ENV = "DASK_SCHEDULER_ADDRESS"
@@ -33,6 +33,7 @@ class Task:
     fraction: float
     scenes: tuple[str, ...]
     tolerance: float = 0.01
+    criterion: str = "response"
 
 
 def run_task(task: Task) -> dict:
@@ -40,17 +41,21 @@ def run_task(task: Task) -> dict:
     body = read_body(task.body)
     a = analyze(body, Options(situation=Situation(w_op=task.speed)))
     opts = SceneOptions(speed=task.speed if task.speed > 0 else None)
-    v = verify(a, [make_scene(n, a, opts) for n in task.scenes], task.tolerance, repeats=1)
-    sets = {}
+    scenes = [make_scene(n, a, opts) for n in task.scenes]
+    a = for_scenes(a, scenes)
+    v = verify(a, scenes, task.tolerance, repeats=1, criterion=task.criterion)
+    sets, worst_of = {}, {}
     for r in v.results:
         sets.setdefault(r.set.label, {})[r.scene] = {k: (None if not np.isfinite(e) else float(e))
-                                                     for k, e in r.errors.items()}
-    worst_of = {label: max(worst({k: (np.inf if e is None else e) for k, e in errs.items()})
-                           for errs in scenes.values()) for label, scenes in sets.items()}
+                                                     for k, e in r.errors.items()}  # null: infinite or NaN
+        worst_of[r.set.label] = max(worst_of.get(r.set.label, 0.0), worst(r.errors, task.criterion))
+    other = {c: judge(a, v.results, task.tolerance, c) for c in CRITERIA if c != task.criterion}
     return {"body": body.name, "speed_rad_s": task.speed, "fraction_of_s_crit": task.fraction,
-            "scenes": list(task.scenes), "advised_level": a.advice.level, "advised_terms": list(a.advice.terms),
+            "scenes": list(task.scenes), "advice_speed_rad_s": a.options.situation.w_op,
+            "advised_level": a.advice.level, "advised_terms": list(a.advice.terms), "criterion": task.criterion,
             "cheapest": v.verdict.cheapest, "verdict": v.verdict.verdict, "text": v.verdict.text,
             "broken": [list(b) for b in v.verdict.broken],
+            "other_criteria": {c: {"verdict": j.verdict, "cheapest": j.cheapest} for c, j in other.items()},
             "worst_error": {k: (None if not np.isfinite(x) else float(x)) for k, x in worst_of.items()},
             "errors": sets}
 

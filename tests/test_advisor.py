@@ -227,7 +227,8 @@ def _flipped(body, signs):
     ints = body.integrals
     s = np.asarray(signs, float)
     return dc_replace(body, integrals=dc_replace(ints, Ibar=ints.Ibar * s, mode_sum=ints.mode_sum * s,
-                                                 Sbar=ints.Sbar * np.outer(s, s)))
+                                                 Sbar=ints.Sbar * np.outer(s, s)),
+                      geometric=None if body.geometric is None else body.geometric * np.outer(s, s))
 
 
 def _decisions(a):

@@ -43,8 +43,10 @@ def test_all_six_are_shipped_small_and_complete(shipped):
 
 def test_levels_at_moderate_speed_free_and_stiff(shipped):
     # thresholds of docs/verification.md (chosen for a 1 % tolerance): genstruct2's dI_L = 0.019 > 0.005
-    # (rule III), the carbody's centrifugal stress 2 % of sigma_allow > 5e-4 (rule II)
-    expected = {"beam": "III", "genstruct1": "III", "plate": "I", "conrod": "I", "genstruct2": "III", "carbody": "II"}
+    # (rule III), the carbody's centrifugal stress 2 % of sigma_allow > 5e-4 (rule II); the plate's membrane
+    # tension raises its out-of-plane frequencies by 0.7 % at 1 rad/s (r_cf2 with geo_stiff, theory 9)
+    expected = {"beam": "III", "genstruct1": "III", "plate": "III", "conrod": "I", "genstruct2": "III",
+                "carbody": "II"}
     for name, body in shipped.items():
         assert _advice(body).advice.level == expected[name], name
         stiff = _advice(body, "stiff").advice  # rules III and IV off; widening (rule II) still counts

@@ -6,11 +6,22 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import scipy.sparse as sp
 
+from .fe.material import Material
 from .fe.mesh import Mesh
 from .invariants import ShapeIntegrals, frozen_array, principal_axes
 from .units import TMM, Units, factor
 
 MASS_KINDS = ("consistent", "lumped", "unknown")
+SYM_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))  # the six centrifugal load cases kl (theory 9)
+
+
+def rotated_pairs(G: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Six matrices G_kl of a quadratic form in w (``G(w) = sum_kl w_k w_l G_kl``) in the frame turned by R."""
+    full = np.zeros((3, 3, *G.shape[1:]))
+    for c, (k, l) in enumerate(SYM_PAIRS):
+        full[k, l] = full[l, k] = G[c]
+    turned = np.einsum("ki,lj,kl...->ij...", R, R, full)
+    return np.array([turned[k, l] for k, l in SYM_PAIRS])
 
 
 @dataclass(frozen=True)
@@ -42,6 +53,7 @@ class ModalFE:
     Phi: np.ndarray
     K: sp.csr_array | None = None
     stress_nodal: np.ndarray | None = None  # von Mises (n, nf) per unit modal coordinate
+    material: Material | None = None        # in the body's units; with it K and stresses can be recomputed
 
     def __post_init__(self):
         object.__setattr__(self, "Phi", frozen_array(self.Phi))
@@ -70,6 +82,9 @@ class ModalFE:
             K=None if self.K is None else self.K * factor(src, dst, "stiffness"),
             stress_nodal=None if self.stress_nodal is None
             else self.stress_nodal * factor(src, dst, "modal_stress"),
+            material=None if self.material is None else replace(
+                self.material, E=self.material.E * factor(src, dst, "stress"),
+                rho=self.material.rho * factor(src, dst, "density")),
         )
 
 
@@ -78,6 +93,32 @@ def _per_mode(a: np.ndarray | None, ix: np.ndarray, axes: int) -> np.ndarray | N
     if a is None:
         return None
     return a[..., ix] if axes == 1 else a[..., ix, :][..., ix]
+
+
+@dataclass(frozen=True)
+class StaticCentrifugal:
+    """Exact static centrifugal response per principal axis at unit spin (theory 11; ``adequacy``): the
+    compliance f^T u [energy time^4] and the largest von Mises stress of u [stress time^2]. Depends on the
+    FE model only, not on the kept modes."""
+
+    compliance: np.ndarray
+    sigma: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "compliance", frozen_array(self.compliance))
+        object.__setattr__(self, "sigma", frozen_array(self.sigma))
+
+    def converted(self, src: Units, dst: Units) -> "StaticCentrifugal":
+        return StaticCentrifugal(self.compliance * factor(src, dst, "compliance_per_spin4"),
+                                 self.sigma * factor(src, dst, "stress_per_spin2"))
+
+    def permuted(self, R: np.ndarray) -> "StaticCentrifugal | None":
+        """The values for the frame turned by R when R only swaps or flips axes, else None (recompute)."""
+        P = np.abs(R)
+        if not np.allclose(P, np.round(P), atol=1e-9):
+            return None
+        ix = np.argmax(P, axis=0)  # new axis j is old axis ix[j]
+        return StaticCentrifugal(self.compliance[ix], self.sigma[ix])
 
 
 @dataclass(frozen=True)
@@ -95,6 +136,8 @@ class FlexibleBody:
     sigma_max: np.ndarray | None = None
     provenance: Provenance = field(default_factory=Provenance)
     fe: ModalFE | None = None
+    static_centrifugal: StaticCentrifugal | None = None  # theory 11, from FE data
+    geometric: np.ndarray | None = None  # (6, nf, nf) modal geometric stiffness per unit spin^2 (theory 9)
 
     def __post_init__(self):
         object.__setattr__(self, "eigenvalues", frozen_array(self.eigenvalues))
@@ -104,6 +147,9 @@ class FlexibleBody:
             raise ValueError(f"eigenvalues: expected shape ({nf},), got {self.eigenvalues.shape}")
         if self.sigma_max is not None and self.sigma_max.shape != (nf,):
             raise ValueError(f"sigma_max: expected shape ({nf},), got {self.sigma_max.shape}")
+        object.__setattr__(self, "geometric", frozen_array(self.geometric))
+        if self.geometric is not None and self.geometric.shape != (6, nf, nf):
+            raise ValueError(f"geometric: expected shape (6, {nf}, {nf}), got {self.geometric.shape}")
         if self.fe is not None and self.fe.Phi.shape[2] != nf:
             raise ValueError(f"modes: expected {nf} modes, got {self.fe.Phi.shape[2]}")
 
@@ -160,7 +206,10 @@ class FlexibleBody:
         shifted = self.integrals.shifted(c)
         R = principal_axes(shifted.I0())
         fe = None if self.fe is None else self.fe.transformed(c, R)
-        body = replace(self, integrals=shifted.rotated(R), fe=fe)
+        moved = np.linalg.norm(c) > 1e-9 * self.largest_dimension()
+        static = None if self.static_centrifugal is None or moved else self.static_centrifugal.permuted(R)
+        geo = None if self.geometric is None or moved else rotated_pairs(self.geometric, R)
+        body = replace(self, integrals=shifted.rotated(R), fe=fe, static_centrifugal=static, geometric=geo)
         return body, c, R
 
     def first_modes(self, nf: int) -> "FlexibleBody":
@@ -179,7 +228,7 @@ class FlexibleBody:
         fe = None if self.fe is None else replace(self.fe, Phi=self.fe.Phi[:, :, ix],
                                                   stress_nodal=take(self.fe.stress_nodal, 1))
         return replace(self, integrals=integrals, eigenvalues=self.eigenvalues[ix],
-                       sigma_max=take(self.sigma_max, 1), fe=fe)
+                       sigma_max=take(self.sigma_max, 1), fe=fe, geometric=take(self.geometric, 2))
 
     def converted(self, units: Units) -> "FlexibleBody":
         """The same body in other units; every conversion factor is exact up to one rounding."""
@@ -191,4 +240,6 @@ class FlexibleBody:
             eigenvalues=self.eigenvalues * factor(src, units, "eigenvalue"),
             sigma_max=None if self.sigma_max is None else self.sigma_max * factor(src, units, "modal_stress"),
             fe=None if self.fe is None else self.fe.converted(src, units),
+            static_centrifugal=None if self.static_centrifugal is None
+            else self.static_centrifugal.converted(src, units),
         )

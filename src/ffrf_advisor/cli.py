@@ -21,6 +21,7 @@ from .io import check_reader_options, format_of, formats, read_body, write_body
 from .io.atomic import atomic_path
 from .report.compare import comparison, comparison_table
 from .report.console import analysis_summary, body_summary, progress_bar, simulation_report, verification_report
+from .adequacy import basis_errors
 from .report.json_out import SCHEMA_VERSION, analysis_json
 from .samples import SAMPLES, sample as make_sample
 from .sim.integrate import INTEGRATORS, integrate
@@ -96,11 +97,19 @@ SpinAxis = Annotated[Optional[str], typer.Option(
     "--spin-axis", help="Spin axis: principal axis 1, 2, 3 or a body-frame vector X,Y,Z (default: each, the worst decides).")]
 
 
+def _is_file(text: str) -> bool:
+    """Whether ``text`` names an existing regular file (a long list of numbers is not a path: no OSError)."""
+    try:
+        return Path(text).is_file()
+    except (OSError, ValueError):
+        return False
+
+
 def _numbers(option: str, text: str | None):
     """Numbers from a comma/blank list or a file of them; None stays None."""
     if text is None:
         return None
-    source = Path(text).read_text() if Path(text).is_file() else text
+    source = Path(text).read_text() if _is_file(text) else text
     try:
         return tuple(float(x) for x in source.replace(",", " ").split())
     except ValueError:
@@ -114,16 +123,17 @@ Density = Annotated[Optional[float], typer.Option(
     "--density", help="meshio meshes: density [t/mm^3] (else field data).")]
 
 
-def _mesh_options(eigenvalues: str | None, density: float | None) -> dict:
-    """--eigenvalues/--density as reader options (meshio meshes only)."""
-    return {k: v for k, v in (("eigenvalues", _numbers("--eigenvalues", eigenvalues)), ("density", density))
-            if v is not None}
+def _mesh_options(eigenvalues: str | None, density: float | None, young: float | None = None,
+                  poisson: float | None = None) -> dict:
+    """--eigenvalues/--density/--young/--poisson as reader options (meshio meshes only)."""
+    return {k: v for k, v in (("eigenvalues", _numbers("--eigenvalues", eigenvalues)), ("density", density),
+                              ("young", young), ("poisson", poisson)) if v is not None}
 
 
 def _read(path: Path, eigenvalues: str | None = None, density: float | None = None, fmt: str | None = None,
-          load_fe: bool = True):
-    """Read any format; --eigenvalues/--density go to the meshio reader only."""
-    mesh_options = _mesh_options(eigenvalues, density)
+          load_fe: bool = True, young: float | None = None, poisson: float | None = None):
+    """Read any format; --eigenvalues/--density/--young/--poisson go to the meshio reader only."""
+    mesh_options = _mesh_options(eigenvalues, density, young, poisson)
     check_reader_options(path, mesh_options, fmt)
     return read_body(path, fmt, load_fe=load_fe, **mesh_options)
 
@@ -274,17 +284,44 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
             from_format: Optional[str] = typer.Option(None, "--from", help="Input format name (default: by suffix)."),
             to_format: Optional[str] = typer.Option(None, "--to", help="Output format name (default: by suffix)."),
             force: bool = typer.Option(False, "--force", help="Overwrite TARGET."),
-            eigenvalues: Eigenvalues = None, density: Density = None):
+            eigenvalues: Eigenvalues = None, density: Density = None,
+            young: Optional[float] = typer.Option(None, "--young", help="meshio meshes: Young's modulus [N/mm^2]; "
+                                                                        "with --poisson the static centrifugal "
+                                                                        "response and geometric stiffness are "
+                                                                        "computed (theory 9, 11)."),
+            poisson: Optional[float] = typer.Option(None, "--poisson", help="meshio meshes: Poisson's ratio.")):
     """Convert a body between formats (see `ffrf-advisor formats`); refuses to overwrite without --force."""
     if target.exists() and not force:
         raise FFRFError(f"{target}: exists; refusing to overwrite (use --force)")
     fmt = format_of(target, to_format)
     if fmt.write is None:
         raise FFRFError(f"{target}: format {fmt.name} can be read but not written")
-    body = _read(source, eigenvalues, density, from_format)
+    body = _read(source, eigenvalues, density, from_format, young=young, poisson=poisson)
     write_body(body, target, fmt.name, overwrite=force)
     out.print(f"wrote {target} ({fmt.name}): {body.name}, {body.nf} modes"
               + ("" if body.fe is not None else ", invariants only"))
+
+
+@app.command()
+@handles_errors
+def augment(body: Path = typer.Argument(..., help="Body file with FE data and material."),
+            output: Path = typer.Option(..., "--output", "-o", help="Body file to write (.ffrf.h5)."),
+            axes: str = typer.Option("1,2,3", "--axes", help="Principal axes whose static centrifugal deflection "
+                                                             "joins the modes, e.g. 3 or 1,2,3."),
+            force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT.")):
+    """Add the static centrifugal deflections as residual vectors (theory 11): the fix when the kept modes
+    cannot carry the widening."""
+    from .augment import augment as add_residual_vectors, parse_axes
+    chosen = parse_axes(axes)
+    if output.exists() and not force:
+        raise FFRFError(f"{output}: exists; refusing to overwrite (use --force)")
+    b = _read(body)
+    new = add_residual_vectors(b, chosen, str(body))
+    write_body(new, output, "ffrf-h5", overwrite=force)
+    errors = basis_errors(new)
+    out.print(f"wrote {output}: {new.name}, {b.nf} + {len(chosen)} -> {new.nf} modes; energy-norm error of "
+              "the static centrifugal deflection about axes 1, 2, 3: " + ", ".join(f"{e:.2g}" for e in errors),
+              highlight=False)
 
 
 @app.command("formats")
@@ -317,7 +354,9 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
     out.print(f"Adams: [bold]{data['formulation']}[/bold]   INVARIANTS={data['invariants']}")
     out.print(f"  {data['statement']}")
     for term, invs in data["needed_invariants"].items():
-        out.print(f"  {term:13s} needs {', '.join(invs)}")
+        out.print(f"  {term:13s} " + (f"needs {', '.join(invs)}" if invs else
+                                      "no invariant carries it: the solver needs its own stress stiffening "
+                                      "(theory 9)"), highlight=False)
     out.print(f"source: {data['source']}", highlight=False)
     out.print(f"note: {data['pattern_note']}", highlight=False)
 

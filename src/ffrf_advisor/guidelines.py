@@ -12,8 +12,9 @@ import numpy as np
 from .amplitudes import Amplitudes
 from .body import FlexibleBody
 from .errors import FFRFError
+from .adequacy import basis_errors, modal_widening_stress
 from .response import r_cf2, r_cor
-from .significance import Significance, f_cf1
+from .significance import Significance
 from .terms import is_lagrangian, lagrangian_superset, ordered
 from .units import TIME
 
@@ -27,6 +28,7 @@ THRESHOLDS = {
     "speed_ratio": 0.1,         # rule IV: w_op / (2 pi f_sys)
     "r_cor": 1e-4,              # rule IV, cor_quad + cor_coupling: r_cor at w_op (theory 7; docs/verification.md)
     "softening_warning": 0.5,   # warn when w_op / s_crit exceeds this
+    "basis_error": 0.1,         # warn when the kept modes miss the static centrifugal deflection (theory 11)
 }
 CONNECTIONS = ("free", "soft", "stiff")
 LEVELS = ("I", "II", "III", "IV")
@@ -164,14 +166,39 @@ def _rule_II(body, amp: Amplitudes, sit: Situation, w_op) -> Rule:
                     + " (user)")
     if w_op is None:
         return Rule("II", "widening", None, thr, None, (), "not evaluated: no operating speed")
-    if body.sigma_max is None:
+    exact = body.static_centrifugal is not None and sit.spin_axis is None
+    if body.sigma_max is None and not exact:
         return Rule("II", "widening", None, thr, None, (), "not evaluated: no modal stress data")
-    stress = [float(np.abs(f_cf1(body, w_op * a) / body.eigenvalues) @ body.sigma_max) for a in sit.axes()]
+    if exact:  # the exact static FE solution per principal axis (theory 11): right whatever the kept modes
+        stress = list(body.static_centrifugal.sigma * w_op**2)
+        source = "exact static FE solution (theory 11)"
+    else:
+        stress = [modal_widening_stress(body, a) * w_op**2 for a in sit.axes()]
+        source = "kept modes, sum |q_c,p| sigma_p" + ("" if body.static_centrifugal is None
+                                                        else "; the exact solution is per principal axis only")
     k = int(np.argmax(stress))  # the largest centrifugal stress over the spin axes decides
     value = stress[k] / amp.sigma_allow
     fired = value > thr
     return Rule("II", "widening", value, thr, fired, ("cf1",) if fired else (),
-                f"static centrifugal stress at w_op is {value:.2%} of sigma_allow ({_axis_text(sit, k)})")
+                f"static centrifugal stress at w_op is {value:.2%} of sigma_allow ({_axis_text(sit, k)}; "
+                f"{source})")
+
+
+def _basis_warnings(body: FlexibleBody, sit: Situation, w_op) -> list[str]:
+    """Principal axes whose centrifugal deflection the kept modes miss (theory 11), with the fix."""
+    if body.static_centrifugal is None:
+        return []
+    thr, s = sit.threshold("basis_error"), (1.0 if w_op is None else w_op)
+    at = "per (rad/time unit)^2" if w_op is None else "at w_op"
+    out = []
+    for k, e in enumerate(basis_errors(body)):
+        if e > thr:
+            exact = body.static_centrifugal.sigma[k] * s**2
+            modal = "n/a" if body.sigma_max is None else f"{modal_widening_stress(body, np.eye(3)[k]) * s**2:.3g}"
+            out.append(f"principal axis {k + 1}: the kept modes miss the centrifugal deflection (energy-norm "
+                       f"error {e:.2f} > {thr:g}); widening stress {at} {exact:.3g} {body.units.stress} exact, "
+                       f"{modal} from the modes; fix: ffrf-advisor augment BODY -o OUT --axes {k + 1}")
+    return out
 
 
 def _axis_text(sit: Situation, k: int) -> str:
@@ -232,6 +259,7 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
     warnings += w
     rules += _rules_IV(body, sig, sit, w_op, ratio, stiff, rule3_fired)
 
+    warnings += _basis_warnings(body, sit, w_op)
     if sig.not_evaluable:
         warnings.append(f"decided without {', '.join(sig.not_evaluable)} ({_lacking(body)}); "
                         "the level may be too low for beam-like or rotationally soft bodies")
@@ -240,19 +268,34 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
         r = w_op / sig.s_crit[k]
         if r > sit.threshold("softening_warning"):
             warnings.append(f"operating speed is {r:.0%} of the centrifugal-softening limit about axis {k + 1} "
-                            f"({sig.s_crit[k] / per_s:.4g} rad/s): the linear FFRF without geometric "
-                            "stiffening loses validity there")
+                            f"({sig.s_crit[k] / per_s:.4g} rad/s): {softening_situation(sig, k, per_s)}")
     level = max((r.rule for r in rules if r.fired and r.terms), key=LEVELS.index)
-    rules.append(_closure(ordered({t for r in rules for t in r.terms}), level, stiff))
+    rules.append(_closure(ordered({t for r in rules for t in r.terms}), level, stiff, body.geometric is not None))
     terms = ordered({t for r in rules for t in r.terms})
     return Advice(level, terms, tuple(rules), tuple(warnings))
 
 
-def _closure(terms: tuple[str, ...], level: str, stiff: bool) -> Rule:
+def softening_situation(sig: Significance, k: int, per_s: float) -> str:
+    """Which of theory 9's two situations applies about principal axis k, from s_crit with and without G."""
+    if sig.s_crit_stiffened is None:
+        return ("the linear FFRF without geometric stiffening loses validity there (the body carries no geometric "
+                "stiffness: an invariants file, or FE data without a material)")
+    stiff = sig.s_crit_stiffened[k]
+    if not np.isfinite(stiff) or stiff > 2 * sig.s_crit[k]:
+        return ("the body extends across this axis: centrifugal tension stiffens it and cancels the softening "
+                + ("entirely" if not np.isfinite(stiff) else f"up to {stiff / per_s:.4g} rad/s")
+                + " (geo_stiff, theory 9)")
+    return (f"the body is long along this axis: the softening is real, a whirling speed (with stiffening "
+            f"{stiff / per_s:.4g} rad/s)")
+
+
+def _closure(terms: tuple[str, ...], level: str, stiff: bool, has_G: bool) -> Rule:
     """Whole energy groups for a body not stiffly connected: its rotation follows from its own equations, which
     conserve energy and angular momentum only with Lagrangian sets (theory 5; without, a free spin drifts by
     the size of the neglected terms' partners: docs/verification.md)."""
-    closed = lagrangian_superset(terms) or terms
+    ffrf = tuple(t for t in terms if t != "geo_stiff")  # geo_stiff lies outside the kinetic energy (theory 9)
+    closed = lagrangian_superset(ffrf)
+    closed += ("geo_stiff",) if has_G and "cf2" in closed else ()  # cf2 never without its stiffening
     added = tuple(t for t in closed if t not in terms)
     if stiff:
         return Rule(level, "lagrangian_closure", None, None, False, (),
@@ -277,9 +320,14 @@ def _rule_cf2(body: FlexibleBody, sit: Situation, w_op, stiff: bool) -> Rule:
     value, k = _worst_axis(sit, lambda a: r_cf2(body, a, w_op))
     over = value > thr
     fired = over and not stiff
+    geo = body.geometric is not None
+    terms = ("cf2", "geo_stiff") if geo else ("cf2",)
     reason = (f"r_cf2 = {value:.3g} {'>' if over else '<='} {thr:g} at w_op ({_axis_text(sit, k)}): change of the "
-              "static centrifugal response or of the frequencies by cf2" + ("; stiffly connected" if over and stiff else ""))
-    return Rule("III", "cf2", value, thr, fired, ("cf2",) if fired else (), reason)
+              "static centrifugal response or of the frequencies by cf2" + (" with geo_stiff (decided together: "
+                                                                           "softening without the stiffening that "
+                                                                           "balances it is the wrong physics)" if geo else "")
+              + ("; stiffly connected" if over and stiff else ""))
+    return Rule("III", "cf2", value, thr, fired, terms if fired else (), reason)
 
 
 def _rules_IV(body, sig, sit, w_op, ratio, stiff, inertia_fired) -> list[Rule]:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .body import FlexibleBody
+from .body import SYM_PAIRS, FlexibleBody
 from .significance import f_cf1
 from .terms import FULL
 
@@ -36,11 +36,18 @@ def softening_matrix(body: FlexibleBody, a: np.ndarray) -> np.ndarray:
     return 0.5 * (K + K.T)
 
 
+def geometric_matrix(body: FlexibleBody, a: np.ndarray) -> np.ndarray:
+    """``G(a) = sum_kl a_k a_l G_kl`` (theory 9), zero when the body carries no geometric stiffness."""
+    if body.geometric is None:
+        return np.zeros((body.nf, body.nf))
+    return sum(a[k] * a[l] * (1 if k == l else 2) * Gc for (k, l), Gc in zip(SYM_PAIRS, body.geometric))
+
+
 def r_cf2(body: FlexibleBody, a, s: float) -> float:
     """Change of the static centrifugal response and of the frequencies by cf2 at spin s about a."""
     a = np.asarray(a, float) / np.linalg.norm(a)
     lam = np.asarray(body.eigenvalues, float)
-    K = np.diag(lam) - s**2 * softening_matrix(body, a)
+    K = np.diag(lam) - s**2 * (softening_matrix(body, a) - geometric_matrix(body, a))
     mu = np.linalg.eigvalsh(K)
     if mu.min() <= 0:
         return np.inf

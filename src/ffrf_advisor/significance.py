@@ -63,6 +63,7 @@ class Significance:
     centrifugal_paper: Ratio | None = None
     signs: np.ndarray | None = None          # (nf,) the sign pattern of the worst Coriolis ratio
     sign_search: str = ""                    # how the worst pattern was found
+    s_crit_stiffened: np.ndarray | None = None  # (3,) the same with geometric stiffening (theory 9), if carried
 
     def max_first(self, name: str) -> np.ndarray | None:
         """Per axis (or scalar for dI_Tf), the maximum of a dI measure over the first n_ratio modes."""
@@ -189,14 +190,16 @@ def norm_ratios(body: FlexibleBody, q_max: np.ndarray, n_ratio: int) -> dict:
             "signs": signs, "sign_search": how}
 
 
-def softening_speeds(body: FlexibleBody) -> np.ndarray:
-    """s_crit about each principal axis: s^2 = min eig(Omega^2, Kc(a)), Kc(a) = sum_kl a_k a_l W2_kl (theory 9)."""
+def softening_speeds(body: FlexibleBody, stiffened: bool = False) -> np.ndarray:
+    """s_crit about each principal axis: s^2 = min eig(Omega^2, Kc(a)), Kc(a) = sum_kl a_k a_l W2_kl, with
+    ``stiffened`` min eig(Omega^2, Kc(a) - G(a)) (infinite when no eigenvalue is positive; theory 9)."""
     nf = body.nf
     W2 = body.W2.reshape(3, nf, 3, nf)
     inv_omega = 1 / np.sqrt(body.eigenvalues)
     out = np.full(3, np.inf)
     for k in range(3):
-        B = inv_omega[:, None] * W2[k, :, k, :] * inv_omega[None, :]
+        Kc = W2[k, :, k, :] - (body.geometric[k] if stiffened else 0.0)
+        B = inv_omega[:, None] * Kc * inv_omega[None, :]
         mu = np.linalg.eigvalsh(0.5 * (B + B.T)).max()
         if mu > 0:
             out[k] = 1 / np.sqrt(mu)
@@ -212,9 +215,10 @@ def significance(body: FlexibleBody, q_max: np.ndarray, n_ratio: int | None = No
     ratios = {} if missing else norm_ratios(body, q_max, n)
     mags = {name: magnitudes(getattr(body, name)) for name in ("I0", "W1", "W2", "W3") if name not in missing}
     s_crit = None if "W2" in missing else softening_speeds(body)
+    stiff = None if s_crit is None or body.geometric is None else softening_speeds(body, stiffened=True)
     return Significance(dI_L, dI_Q, dI_fT, dI_Tf, mags, n, ratios.get("coriolis"), ratios.get("centrifugal"), s_crit,
                         not_evaluable(missing), ratios.get("coriolis_paper"), ratios.get("centrifugal_paper"),
-                        ratios.get("signs"), ratios.get("sign_search", ""))
+                        ratios.get("signs"), ratios.get("sign_search", ""), stiff)
 
 
 NEEDS = {"dI_Q": ("W2",), "dI_fT": ("W3",), "dI_Tf": ("W3",), "coriolis_ratio": ("W2", "W3"),

@@ -98,6 +98,9 @@ DIM = {
     "stiffness": (1, 0, -2),
     "stress": (1, -1, -2),
     "modal_stress": (0.5, -2, -2),  # stress per unit modal coordinate
+    "density": (1, -3, 0),
+    "stress_per_spin2": (1, -1, 0),      # stress per (rad per time unit)^2 (theory 11)
+    "compliance_per_spin4": (1, 2, 2),   # f^T u of the centrifugal load per (rad per time unit)^4 (theory 11)
 }
 
 

@@ -1,14 +1,18 @@
 """A FlexibleBody from a solid mesh: assembly, free-free modes, modal stress, invariants."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
+from ..adequacy import static_centrifugal
 from ..body import FlexibleBody, ModalFE, Provenance
 from ..invariants import shape_integrals
-from ..units import TMM
+from ..units import TMM, Units
 from .assembly import full_mass, mass_matrix, stiffness_matrix
 from .material import Material
 from .mesh import Mesh
+from .geometric import modal_geometric
 from .modal import free_free_modes, mass_normalised
 from .stress import modal_von_mises
 
@@ -31,22 +35,32 @@ def modal_body(mesh: Mesh, material: Material, n_modes: int, name: str = "body",
                f"{mesh.n_cells} x {', '.join(mesh.cells)}, {mesh.n_nodes} nodes"
                + (f", {lumping} lumped mass" if lumping else "")),
     )
-    return fe_body(name, mesh, Ms, modes.Phi, modes.eigenvalues, provenance, K, stress)
+    body = fe_body(name, mesh, Ms, modes.Phi, modes.eigenvalues, provenance, K, stress, material)
+    return with_centrifugal_response(body)
 
 
 def fe_body(name: str, mesh: Mesh, Ms, Phi: np.ndarray, eigenvalues: np.ndarray, provenance: Provenance,
-            K=None, stress: np.ndarray | None = None) -> FlexibleBody:
-    """The body of mass-normalised modes on ``mesh`` (t-mm-N-s), in its CoM principal frame."""
+            K=None, stress: np.ndarray | None = None, material: Material | None = None,
+            units: Units = TMM) -> FlexibleBody:
+    """The body of mass-normalised modes on ``mesh`` (in ``units``), in its CoM principal frame."""
     body = FlexibleBody(
         name=name,
         integrals=shape_integrals(mesh.points, Ms, Phi),
         eigenvalues=eigenvalues,
-        units=TMM,
+        units=units,
         sigma_max=None if stress is None else stress.max(axis=0),
         provenance=provenance,
-        fe=ModalFE(mesh, Ms, Phi, K, stress),
+        fe=ModalFE(mesh, Ms, Phi, K, stress, material),
     )
     return body.in_principal_frame()[0]
+
+
+def with_centrifugal_response(body: FlexibleBody) -> FlexibleBody:
+    """``body`` with its exact static centrifugal response per principal axis (theory 11) and its modal
+    geometric stiffness G_kl (theory 9), from one factorisation of K; needs the material."""
+    fe = body.fe
+    static, U = static_centrifugal(fe, fe.material)
+    return replace(body, static_centrifugal=static, geometric=modal_geometric(fe.mesh, fe.material, fe.Phi, U))
 
 
 def mass_normalised_file_modes(Ms, Phi: np.ndarray, stress: np.ndarray | None, X: np.ndarray):

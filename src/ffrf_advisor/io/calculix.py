@@ -21,7 +21,7 @@ import scipy.sparse as sp
 from ..body import FlexibleBody, Provenance
 from ..errors import BodyFileError
 from ..fe.assembly import full_mass, mass_matrix
-from ..fe.build import fe_body, mass_normalised_file_modes
+from ..fe.build import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from ..fe.material import Material
 from ..fe.mesh import Mesh
 from ..fe.stress import von_mises
@@ -219,17 +219,36 @@ def _dat_eigenvalues(path: Path) -> np.ndarray | None:
     return np.array(values)
 
 
+def _deck_card(path: Path, keyword: str) -> list[float] | None:
+    """The numbers on the data line after the first ``keyword`` card of the deck, None when absent."""
+    lines = path.read_text(errors="replace").splitlines()
+    for i, line in enumerate(lines):
+        if line.strip().upper().startswith(keyword) and i + 1 < len(lines):
+            try:
+                return [float(x) for x in lines[i + 1].split(",") if x.strip()]
+            except ValueError:
+                return None
+    return None
+
+
 def _deck_density(frd: _Frd, path: Path) -> float:
     if not path.is_file():
         frd.fail("mass", f"{path.name} (*DENSITY) or {path.with_suffix('.mas').name} beside the .frd", "missing")
-    lines = path.read_text(errors="replace").splitlines()
-    for i, line in enumerate(lines):
-        if line.strip().upper().startswith("*DENSITY") and i + 1 < len(lines):
-            try:
-                return float(lines[i + 1].split(",")[0])
-            except ValueError:
-                break
-    frd.fail(f"{path.name}: *DENSITY", "a density line after *DENSITY")
+    values = _deck_card(path, "*DENSITY")
+    if not values:
+        frd.fail(f"{path.name}: *DENSITY", "a density line after *DENSITY")
+    return values[0]
+
+
+def _deck_material(path: Path) -> Material | None:
+    """E, nu (*ELASTIC) and rho (*DENSITY) of the deck beside the .frd (one isotropic material), or None."""
+    if not path.is_file():
+        return None
+    elastic, density = _deck_card(path, "*ELASTIC"), _deck_card(path, "*DENSITY")
+    if not elastic or len(elastic) < 2 or not density or elastic[0] <= 0 or not -1 < elastic[1] < 0.5 \
+            or density[0] <= 0:
+        return None
+    return Material(f"{path.name} material", elastic[0], elastic[1], density[0])
 
 
 def _stored_matrix(frd: _Frd, path: Path, rows: np.ndarray, n3: int) -> sp.csr_array:
@@ -303,9 +322,14 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
                      + ("/.sti)" if K is not None else ")"))
     Phi_n, stress, _ = mass_normalised_file_modes(Ms, Phi[:, :, flex], None if stress is None else stress[:, flex],
                                                  mesh.points)
-    return fe_body(Path(path).name.split(".")[0], mesh, Ms, Phi_n, lam[flex],
+    material = _deck_material(stem.with_suffix(".inp"))
+    if material is not None:
+        notes.append("material from the deck (*ELASTIC, *DENSITY): static centrifugal response and geometric "
+                     "stiffness computed (theory 9, 11)")
+    body = fe_body(Path(path).name.split(".")[0], mesh, Ms, Phi_n, lam[flex],
                    Provenance(source=str(path), mass_matrix="consistent", notes=tuple(notes), digits=frd.digits),
-                   K, stress)
+                   K, stress, material)
+    return body if material is None or rigid.sum() != N_RIGID else with_centrifugal_response(body)
 
 
 # ---------------------------------------------------------------- decks

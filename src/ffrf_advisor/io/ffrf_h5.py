@@ -12,9 +12,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import __version__
-from ..body import MASS_KINDS, FlexibleBody, ModalFE, Provenance
+from ..body import MASS_KINDS, FlexibleBody, ModalFE, Provenance, StaticCentrifugal
 from ..errors import BodyFileError
 from ..fe.elements import ELEMENT_TYPES
+from ..fe.material import Material
 from ..fe.mesh import Mesh
 from ..invariants import ShapeIntegrals, shape_integrals
 from ..units import Units, UnitsError
@@ -23,8 +24,8 @@ from .atomic import atomic_path
 from .hdf5_guard import probe
 
 FORMAT_NAME = "ffrf-body"
-VERSION = 1
-SUPPORTED_VERSIONS = (1,)
+VERSION = 2  # 2: optional /material, /static_centrifugal, /geometric_stiffness (docs/format.md)
+SUPPORTED_VERSIONS = (1, 2)
 NODE_CHUNK = 4096  # nodal rows per HDF5 chunk
 
 
@@ -81,6 +82,12 @@ def write(body: FlexibleBody, path: str | os.PathLike, overwrite: bool = False,
                 _dataset(stress, "max", body.sigma_max)
             if body.fe is not None:
                 _write_fe(f, modes, stress, body.fe)
+            if body.static_centrifugal is not None:
+                g = f.create_group("static_centrifugal", track_order=True)
+                _dataset(g, "compliance", body.static_centrifugal.compliance)
+                _dataset(g, "sigma", body.static_centrifugal.sigma)
+            if body.geometric is not None:
+                _dataset(f.create_group("geometric_stiffness", track_order=True), "G", body.geometric)
             if cache_invariants or body.fe is None:
                 _write_integrals(f, body.integrals)
 
@@ -98,6 +105,10 @@ def _write_fe(f: h5py.File, modes: h5py.Group, stress: h5py.Group | None, fe: Mo
         _write_csr(f.create_group("stiffness", track_order=True), "K", fe.K)
     if fe.stress_nodal is not None and stress is not None:
         _dataset(stress, "nodal", fe.stress_nodal, True)
+    if fe.material is not None:
+        g = f.create_group("material", track_order=True)
+        for key in ("name", "E", "nu", "rho"):
+            g.attrs[key] = getattr(fe.material, key)
 
 
 # ---------------------------------------------------------------- reading
@@ -262,18 +273,53 @@ def _read_open(r: _Reader, path, load_fe: bool) -> FlexibleBody:
         r.fail("stress/max", "non-negative von Mises stresses")
     has_fe = "modes/Phi" in r.f
     fe = None
+    material = _material(r)  # validated whether or not the nodal data are read
     if (load_fe and has_fe) or "invariants" not in r.f:
         if not has_fe:
             r.fail("modes/Phi", "nodal modes (or a cached invariants group)", "missing")
-        fe = _read_fe(r, nf)
+        fe = _read_fe(r, nf, material)
         integrals = shape_integrals(fe.mesh.points, fe.Ms, fe.Phi)
     else:
         integrals = _cached_integrals(r, nf)
     return FlexibleBody(name=name, integrals=integrals, eigenvalues=eigenvalues, units=units,
-                        sigma_max=sigma, provenance=_provenance(r, path), fe=fe)
+                        sigma_max=sigma, provenance=_provenance(r, path), fe=fe,
+                        static_centrifugal=_static_centrifugal(r), geometric=_geometric(r, nf))
 
 
-def _read_fe(r: _Reader, nf: int) -> ModalFE:
+def _geometric(r: _Reader, nf: int) -> np.ndarray | None:
+    if "geometric_stiffness" not in r.f:
+        return None
+    G = r.array("geometric_stiffness/G", (6, nf, nf))
+    if np.abs(G - G.transpose(0, 2, 1)).max() > 1e-12 * max(np.abs(G).max(), 1e-300):
+        r.fail("geometric_stiffness/G", "six symmetric matrices")
+    return G
+
+
+def _static_centrifugal(r: _Reader) -> StaticCentrifugal | None:
+    if "static_centrifugal" not in r.f:
+        return None
+    compliance = r.array("static_centrifugal/compliance", (3,))
+    sigma = r.array("static_centrifugal/sigma", (3,))
+    if np.any(compliance < 0) or np.any(sigma < 0):
+        r.fail("static_centrifugal", "non-negative compliances and stresses")
+    return StaticCentrifugal(compliance, sigma)
+
+
+def _material(r: _Reader) -> Material | None:
+    if "material" not in r.f:
+        return None
+    g = r.node("material", h5py.Group)
+    values = {}
+    for key, ok, want in (("E", lambda v: v > 0, "a positive number"), ("rho", lambda v: v > 0, "a positive number"),
+                          ("nu", lambda v: -1 < v < 0.5, "a number in (-1, 0.5)")):
+        v = g.attrs.get(key)
+        if v is None or np.ndim(v) or isinstance(v, (bytes, str)) or not np.isfinite(v) or not ok(float(v)):
+            r.fail(f"material@{key}", want, repr(v))
+        values[key] = float(v)
+    return Material(str(r.attr("name", g)), values["E"], values["nu"], values["rho"])
+
+
+def _read_fe(r: _Reader, nf: int, material: Material | None) -> ModalFE:
     mesh = _mesh(r)
     n = mesh.n_nodes
     Ms = _mass(r, n)
@@ -281,7 +327,7 @@ def _read_fe(r: _Reader, nf: int) -> ModalFE:
     Phi = r.array("modes/Phi", (n, 3, nf))
     K = r.csr("stiffness/K", (3 * n, 3 * n)) if "stiffness/K" in r.f else None
     stress = r.array("stress/nodal", (n, nf)) if "stress/nodal" in r.f else None
-    return ModalFE(mesh, Ms, Phi, K, stress)
+    return ModalFE(mesh, Ms, Phi, K, stress, material)
 
 
 register(Format("ffrf-h5", (".ffrf.h5",), read, write))

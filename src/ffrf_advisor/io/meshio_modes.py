@@ -13,14 +13,16 @@ import contextlib
 import io
 import os
 import re
+from dataclasses import replace
 
 import numpy as np
 
 from ..body import FlexibleBody, Provenance
 from ..errors import BodyFileError
 from ..fe.assembly import mass_matrix
-from ..fe.build import fe_body, mass_normalised_file_modes
+from ..fe.build import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from ..fe.elements import ELEMENT_TYPES
+from ..fe.material import Material
 from ..fe.mesh import Mesh
 from . import Format, register
 
@@ -72,8 +74,11 @@ def _modes(path, m, n_nodes: int) -> tuple[list[int], np.ndarray]:
     return numbers, Phi
 
 
-def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = None) -> FlexibleBody:
-    """A modal body from a meshio mesh with mode fields (t-mm-N-s)."""
+def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = None, young: float | None = None,
+         poisson: float | None = None) -> FlexibleBody:
+    """A modal body from a meshio mesh with mode fields (t-mm-N-s); with ``young`` and ``poisson`` the body
+    carries its material, static centrifugal response and geometric stiffness (theory 9, 11)."""
+    material = _material(path, young, poisson)
     import meshio
 
     try:
@@ -97,7 +102,24 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
         notes=(f"density {rho:g}; modes mass-normalised (file scale factors "
                f"{', '.join(f'{1 / s:.4g}' for s in scale[:4])}{' ...' if nf > 4 else ''})",
                f"{mesh.n_cells} x {', '.join(mesh.cells)}, {mesh.n_nodes} nodes"))
-    return fe_body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi_n, lam, provenance, stress=stress)
+    if material is not None:
+        material = replace(material, rho=rho)
+        provenance = provenance.with_note(f"material E={young:g}, nu={poisson:g} (--young, --poisson): static "
+                                          "centrifugal response and geometric stiffness computed")
+    body = fe_body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi_n, lam, provenance, stress=stress,
+                   material=material)
+    return body if material is None else with_centrifugal_response(body)
+
+
+def _material(path, young: float | None, poisson: float | None) -> Material | None:
+    """--young and --poisson together, in range, or neither."""
+    if young is None and poisson is None:
+        return None
+    if young is None or poisson is None:
+        raise BodyFileError(path, "--young/--poisson", "both or neither", "only one")
+    if not (np.isfinite(young) and young > 0 and np.isfinite(poisson) and -1 < poisson < 0.5):
+        raise BodyFileError(path, "--young/--poisson", "E > 0 and -1 < nu < 0.5", f"{young!r}, {poisson!r}")
+    return Material("meshio --young/--poisson", float(young), float(poisson), 1.0)
 
 
 def _given(path, m, field: str, option):

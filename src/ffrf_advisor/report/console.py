@@ -11,6 +11,7 @@ from rich.markup import escape
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
+from ..adequacy import summary as basis_summary
 from ..body import FlexibleBody
 from ..checks import Check
 from ..sim.cost import cost_ratio
@@ -93,11 +94,12 @@ def analysis_summary(console: Console, a) -> None:
                   "-" if amp.deflection_ratio is None else f"{amp.deflection_ratio[p]:.3g}")
     console.print(t)
     m = Table(title=f"significance per axis (max over the first {sig.n_ratio} modes; theory 7)")
-    for col in ("axis", "dI_L", "dI_Q", "dI_fT", f"s_crit {_unit(f'rad/{u.time}')}"):
+    for col in ("axis", "dI_L", "dI_Q", "dI_fT", f"s_crit {_unit(f'rad/{u.time}')}", "with G"):
         m.add_column(col, justify="right")
     for k in range(3):
         m.add_row(str(k + 1), *(_max(sig.max_first(name), k) for name in ("dI_L", "dI_Q", "dI_fT")),
-                  "n/a" if sig.s_crit is None else f"{sig.s_crit[k]:.4g}")
+                  "n/a" if sig.s_crit is None else f"{sig.s_crit[k]:.4g}",
+                  "n/a" if sig.s_crit_stiffened is None else f"{sig.s_crit_stiffened[k]:.4g}")
     console.print(m)
     console.print(f"dI_Tf max {_max(sig.max_first('dI_Tf'))};  "
                   f"Coriolis ratio {_ratio(sig.coriolis)} (as in the paper {_ratio(sig.coriolis_paper)});  "
@@ -111,6 +113,7 @@ def analysis_summary(console: Console, a) -> None:
     for name, mag in sig.magnitudes.items():
         g.add_row(name, f"{mag.max_abs:.3e}", f"{mag.mean_nonzero:.3e}", f"{mag.frobenius:.3e}")
     console.print(g)
+    _basis_table(console, a)
     r = Table(title="evidence per rule (theory 8)")
     for col in ("rule", "measure", "value", "threshold", "fired", "terms", "reason"):
         r.add_column(col)
@@ -119,6 +122,23 @@ def analysis_summary(console: Console, a) -> None:
         r.add_row(rule.rule, rule.name, "-" if rule.value is None else f"{rule.value:.3g}",
                   "-" if rule.threshold is None else f"{rule.threshold:g}", fired, ", ".join(rule.terms), rule.reason)
     console.print(r)
+
+
+def _basis_table(console: Console, a) -> None:
+    """Can the kept modes carry the centrifugal load (theory 11): per principal axis."""
+    w_op, u = a.options.situation.w_op, a.body.units
+    rows = basis_summary(a.body, w_op)
+    if rows is None:
+        console.print("basis adequacy (theory 11): not available (needs the body's FE data and material)")
+        return
+    at = f"at {w_op:.4g} rad/s" if w_op is not None else "per (rad/s)^2"
+    t = Table(title=f"can the kept modes carry the centrifugal load? (theory 11, {at})")
+    for col in ("axis", "energy error", f"exact stress {_unit(u.stress)}", f"modal stress {_unit(u.stress)}"):
+        t.add_column(col, justify="right")
+    for r in rows:
+        t.add_row(str(r["axis"]), f"{r['energy_error']:.3g}", f"{r['sigma_exact']:.3g}",
+                  "n/a" if r["sigma_modal"] is None else f"{r['sigma_modal']:.3g}")
+    console.print(t)
 
 
 def _max(values, k=None) -> str:

@@ -6,12 +6,13 @@ import math
 import numpy as np
 
 from .. import __version__
+from ..adequacy import summary as basis_summary
 from ..analysis import Analysis
 from ..guidelines import THRESHOLDS
 from ..significance import Ratio
 from ..sim.cost import cost_ratio
 
-SCHEMA_VERSION = 2  # 2: cor_full split into cor_quad + cor_coupling; lagrangian replaces energy_consistent
+SCHEMA_VERSION = 3  # 2: cor_full split into cor_quad + cor_coupling, lagrangian; 3: basis_adequacy
 
 
 def json_number(x):
@@ -68,11 +69,13 @@ def analysis_json(a: Analysis, source: str) -> dict:
             "centrifugal_ratio_paper": json_ratio(sig.centrifugal_paper),
             "ratio_signs": json_array(sig.signs), "ratio_sign_search": sig.sign_search,
             "s_crit": json_array(sig.s_crit),
+            "s_crit_stiffened": json_array(sig.s_crit_stiffened),
             "not_evaluable": list(sig.not_evaluable),
         },
         "rules": [{"rule": r.rule, "name": r.name, "value": json_number(r.value), "threshold": json_number(r.threshold),
                    "fired": None if r.fired is None else bool(r.fired), "terms": list(r.terms), "reason": r.reason} for r in adv.rules],
         "warnings": list(adv.warnings),
+        "basis_adequacy": basis_summary(b, sit.w_op),
         "checks": [{"name": c.name, "value": json_number(c.value), "tolerance": c.tolerance, "passed": c.passed,
                     "precision": c.precision} for c in a.checks],
     }

@@ -19,9 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..body import SYM_PAIRS  # order of the six G(w) matrices
 from .model import N_ROT, Model
-
-SYM_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))  # order of the six G(w) matrices
 
 
 def split(y: np.ndarray, nf: int):

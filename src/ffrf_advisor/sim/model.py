@@ -60,9 +60,11 @@ class Model:
 
 
 def build_model(body: FlexibleBody, terms, damping=0.0, G: np.ndarray | None = None) -> Model:
-    """The Model of ``body`` with term set ``terms`` and modal damping ratio(s) ``damping`` (one or per mode)."""
+    """The Model of ``body`` with term set ``terms`` and modal damping ratio(s) ``damping`` (one or per mode);
+    ``G`` defaults to the body's geometric stiffness (theory 9)."""
     terms = ordered({"gyro0", *terms})
     ints, nf = body.integrals, body.nf
+    G = body.geometric if G is None else G
     missing = [n for n in needed_invariants(terms) if n in ints.missing or (n == "G" and G is None)]
     if missing:
         raise FFRFError(f"{body.name}: term set needs {', '.join(missing)}, which the body does not carry"

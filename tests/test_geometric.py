@@ -16,7 +16,7 @@ from ffrf_advisor.fe.geometric import geometric_scalar
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh
 from ffrf_advisor.fe.modal import rigid_modes
-from ffrf_advisor.guidelines import Situation
+from ffrf_advisor.guidelines import Situation, softening_situations
 from ffrf_advisor.io import read_body, write_body
 from ffrf_advisor.response import geometric_matrix, softening_matrix
 from ffrf_advisor.sim.model import build_model
@@ -131,3 +131,5 @@ def test_the_advisor_decides_cf2_and_geo_stiff_together_and_names_the_situation(
     sig = a.significance
     assert sig.s_crit_stiffened is not None and sig.s_crit_stiffened[0] > 2 * sig.s_crit[0]
     assert any("softening is real" in w or "stiffens it" in w for w in a.advice.warnings)
+    across, _, along = softening_situations(a)
+    assert "extends across" in across and "long along" in along  # axis 3 is the beam's long axis

@@ -107,6 +107,7 @@ def test_softening_divergence_sets_in_at_s_crit_and_not_without_cf2(beam):
     assert onset.s_crit == pytest.approx(s_crit.min())
     assert abs(onset.measured / onset.s_crit - 1) < 0.05
     assert onset.bounded_without_cf2
+    assert onset.bounded_with_geo_stiff  # the beam's lowest s_crit is across it: the tension stiffens it
 
 
 @pytest.mark.slow

@@ -275,6 +275,14 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
     return Advice(level, terms, tuple(rules), tuple(warnings))
 
 
+def softening_situations(a) -> list[str] | None:
+    """Theory 9's situation about each principal axis of an analysis, None without geometric stiffness."""
+    sig = a.significance
+    if sig.s_crit_stiffened is None:
+        return None
+    return [softening_situation(sig, k, _per_second(a.body)) for k in range(3)]
+
+
 def softening_situation(sig: Significance, k: int, per_s: float) -> str:
     """Which of theory 9's two situations applies about principal axis k, from s_crit with and without G."""
     if sig.s_crit_stiffened is None:

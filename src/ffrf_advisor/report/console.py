@@ -13,6 +13,7 @@ from rich.table import Table
 
 from ..adequacy import summary as basis_summary
 from ..body import FlexibleBody
+from ..guidelines import softening_situations
 from ..checks import Check
 from ..sim.cost import cost_ratio
 
@@ -105,6 +106,8 @@ def analysis_summary(console: Console, a) -> None:
                   f"Coriolis ratio {_ratio(sig.coriolis)} (as in the paper {_ratio(sig.coriolis_paper)});  "
                   f"centrifugal ratio {_ratio(sig.centrifugal)} (as in the paper {_ratio(sig.centrifugal_paper)}); "
                   f"first {sig.n_ratio} modes, {sig.sign_search or 'not evaluable'}", highlight=False)
+    for k, text in enumerate(softening_situations(a) or ()):
+        console.print(f"softening about axis {k + 1}: {text}", highlight=False)
     if sig.not_evaluable:
         console.print(f"not evaluable (n/a): {', '.join(sig.not_evaluable)}")
     g = Table(title="magnitudes (G Tables 2, 3)")
@@ -235,7 +238,10 @@ def verification_report(console: Console, d: dict) -> None:
     if onset:
         console.print(f"softening divergence about axis {onset['axis']}: at {onset['measured']:.4g} rad/time "
                       f"by simulation, s_crit {onset['s_crit']:.4g}; without cf2 "
-                      + ("bounded" if onset["bounded_without_cf2"] else "NOT bounded"), highlight=False)
+                      + ("bounded" if onset["bounded_without_cf2"] else "NOT bounded")
+                      + ("" if onset.get("bounded_with_geo_stiff") is None else
+                         "; with geo_stiff " + ("bounded" if onset["bounded_with_geo_stiff"] else "NOT bounded")),
+                      highlight=False)
     errs = d["campbell"]["frequency_error"]
     console.print("Campbell, largest frequency error against the full set: "
                   + ", ".join(f"{k} {_err(x)}" for k, x in errs.items()), highlight=False)

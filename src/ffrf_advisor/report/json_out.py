@@ -8,7 +8,7 @@ import numpy as np
 from .. import __version__
 from ..adequacy import summary as basis_summary
 from ..analysis import Analysis
-from ..guidelines import THRESHOLDS
+from ..guidelines import THRESHOLDS, softening_situations
 from ..significance import Ratio
 from ..sim.cost import cost_ratio
 
@@ -70,6 +70,7 @@ def analysis_json(a: Analysis, source: str) -> dict:
             "ratio_signs": json_array(sig.signs), "ratio_sign_search": sig.sign_search,
             "s_crit": json_array(sig.s_crit),
             "s_crit_stiffened": json_array(sig.s_crit_stiffened),
+            "softening_situation": softening_situations(a),
             "not_evaluable": list(sig.not_evaluable),
         },
         "rules": [{"rule": r.rule, "name": r.name, "value": json_number(r.value), "threshold": json_number(r.threshold),

@@ -89,6 +89,7 @@ class Onset:
     measured: float
     s_crit: float
     bounded_without_cf2: bool
+    bounded_with_geo_stiff: bool | None = None  # {gyro0, cf1, cf2, geo_stiff} at 1.5 s_crit; None without G
 
 
 def _grows(a: Analysis, terms, axis: int, s: float, periods: float = 10.0) -> bool:
@@ -106,7 +107,8 @@ def _grows(a: Analysis, terms, axis: int, s: float, periods: float = 10.0) -> bo
 
 def divergence_onset(a: Analysis, axis: int | None = None) -> Onset | None:
     """Bisection on the prescribed spin speed where {gyro0, cf1, cf2} turns unstable, against s_crit (theory 9);
-    and whether {gyro0, cf1} stays bounded at 1.5 s_crit. None when the body has no finite s_crit."""
+    whether {gyro0, cf1} stays bounded at 1.5 s_crit, and {gyro0, cf1, cf2, geo_stiff} when the body carries
+    its geometric stiffness (the stiffened run). None when the body has no finite s_crit."""
     s_crit = a.significance.s_crit
     if s_crit is None or not np.isfinite(s_crit).any():
         return None
@@ -114,7 +116,8 @@ def divergence_onset(a: Analysis, axis: int | None = None) -> Onset | None:
     sc = float(s_crit[k])
     with_cf2 = ("gyro0", "cf1", "cf2")
     measured = _bisect(lambda s: not _grows(a, with_cf2, k, s), 0.5 * sc, 1.7 * sc, times=7)  # to 1 %
-    return Onset(k + 1, measured, sc, not _grows(a, ("gyro0", "cf1"), k, 1.5 * sc))
+    stiffened = None if a.body.geometric is None else not _grows(a, (*with_cf2, "geo_stiff"), k, 1.5 * sc)
+    return Onset(k + 1, measured, sc, not _grows(a, ("gyro0", "cf1"), k, 1.5 * sc), stiffened)
 
 
 def drift_against_step(a: Analysis, scene, steps_fraction=(0.8, 0.4, 0.2, 0.1)) -> dict:

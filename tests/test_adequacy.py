@@ -93,12 +93,12 @@ def test_rule_II_takes_the_exact_widening_stress_and_warns_with_the_fix(plate):
 
 
 def test_analyze_json_carries_the_adequacy_and_an_invariants_file_says_it_is_not_available(tmp_path):
-    data = json.loads(runner.invoke(app, ["analyze", str(DIR / "beam.ffrf.h5"), "--json", "--speed", "10"]).output)
+    data = json.loads(runner.invoke(app, ["analyze", str(DIR / "beam.ffrf.h5"), "--json", "--speed", "10"]).stdout)
     rows = data["basis_adequacy"]
     assert [r["axis"] for r in rows] == [1, 2, 3] and rows[0]["energy_error"] < 0.1 < rows[2]["energy_error"]
     inv = tmp_path / "beam.ffinv.json"
     assert runner.invoke(app, ["convert", str(DIR / "beam.ffrf.h5"), str(inv)]).exit_code == 0
-    assert json.loads(runner.invoke(app, ["analyze", str(inv), "--json"]).output)["basis_adequacy"] is None
+    assert json.loads(runner.invoke(app, ["analyze", str(inv), "--json"]).stdout)["basis_adequacy"] is None
     text = runner.invoke(app, ["analyze", str(inv)], env={"COLUMNS": "200"}).output
     assert "basis adequacy (theory 11): not available" in text
 

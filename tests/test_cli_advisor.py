@@ -24,7 +24,7 @@ def test_analyze_json_validates_against_the_schema():
     for (level,), args in cases.items():
         result = runner.invoke(app, ["analyze", str(SAMPLE), "--json", *args])
         assert result.exit_code == 0, result.output
-        data = json.loads(result.output)
+        data = json.loads(result.stdout)
         jsonschema.validate(data, SCHEMA)
         assert data["level"] == level
     broken = dict(data, level="V")
@@ -46,13 +46,13 @@ def test_config_file_and_bad_options(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "ffrf-advisor.toml").write_text("[thresholds]\ndI_Q = 0.5\ndI_fT = 0.5\ndI_Tf = 0.5\n")
     result = runner.invoke(app, ["analyze", str(SAMPLE), "--json"])
-    assert json.loads(result.output)["level"] == "I"
+    assert json.loads(result.stdout)["level"] == "I"
     (tmp_path / "ffrf-advisor.toml").write_text("[thresholds]\nbogus = 1\n")
     result = runner.invoke(app, ["analyze", str(SAMPLE)])
     assert result.exit_code == 2 and "bogus" in result.output
     (tmp_path / "ffrf-advisor.toml").unlink()
     (tmp_path / "pyproject.toml").write_text("[tool.ffrf-advisor]\nconnection = 'stiff'\n")
-    assert json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--json"]).output)["level"] == "I"
+    assert json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--json"]).stdout)["level"] == "I"
     for bad in (["--speed", "fast"], ["--connection", "glued"], ["--threshold", "nope=1"], ["--q-max", "1,2"]):
         result = runner.invoke(app, ["analyze", str(SAMPLE), *bad])
         assert result.exit_code == 2, bad
@@ -77,7 +77,7 @@ def test_gate_exit_codes_and_junit(tmp_path):
     bad = runner.invoke(app, ["gate", str(SAMPLE), str(junk), "--max-level", "IV", "--junit", str(junit), "--json"])
     assert bad.exit_code == 2
     assert ET.parse(junit).getroot().get("errors") == "1"
-    data = json.loads(bad.output)
+    data = json.loads(bad.stdout)
     assert [b["level"] for b in data["bodies"]] == ["III", None]
     assert runner.invoke(app, ["gate", str(SAMPLE), "--max-level", "V"]).exit_code == 2
     assert runner.invoke(app, ["gate", str(SAMPLE)]).exit_code == 2  # usage: --max-level missing
@@ -119,27 +119,27 @@ def test_an_assumption_failure_is_a_warning_in_analyze_json_and_in_gate_junit(tm
     path = tmp_path / "unnormalised.ffrf.h5"
     write_body(bad, path)
     result = runner.invoke(app, ["analyze", str(path), "--json"])
-    data = json.loads(result.output)
+    data = json.loads(result.stdout)
     failed = [c["name"] for c in data["checks"] if not c["passed"]]
     assert "mass_normalisation" in failed and any("mass_normalisation failed" in w for w in data["warnings"])
     junit = tmp_path / "gate.xml"
     gate = runner.invoke(app, ["gate", str(path), "--max-level", "IV", "--junit", str(junit)])
     assert gate.exit_code == 0
     assert "mass_normalisation failed" in next(ET.parse(junit).getroot().iter("testcase")).find("system-out").text
-    good = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--json"]).output)
+    good = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--json"]).stdout)
     assert all(c["passed"] for c in good["checks"]) and not any("check" in w for w in good["warnings"])
 
 
 def test_spin_axis_from_the_command_line_and_the_config(tmp_path):
-    one = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "200", "--spin-axis", "2", "--json"]).output)
+    one = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "200", "--spin-axis", "2", "--json"]).stdout)
     assert one["situation"]["spin_axis"] == [0.0, 1.0, 0.0]
     assert all("spin axis 0, 1, 0" in r["reason"] for r in one["rules"] if r["name"] in ("cf2", "cor_deformation")
                and r["value"] is not None)
-    every = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "200", "--json"]).output)
+    every = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "200", "--json"]).stdout)
     assert every["situation"]["spin_axis"] is None and any("principal axis" in r["reason"] for r in every["rules"])
     cfg = tmp_path / "ffrf-advisor.toml"
     cfg.write_text("spin_axis = [0.0, 0.6, 0.8]\n")
-    tilted = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--config", str(cfg), "--json"]).output)
+    tilted = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--config", str(cfg), "--json"]).stdout)
     assert tilted["situation"]["spin_axis"] == [0.0, 0.6, 0.8]
     bad = runner.invoke(app, ["analyze", str(SAMPLE), "--spin-axis", "4,x"])
     assert bad.exit_code == 2 and "--spin-axis" in bad.output
@@ -245,7 +245,7 @@ def test_every_analysing_command_takes_the_same_analysis_options(command):
             "--threshold", "dI_Q=0.5"]
     result = runner.invoke(app, [command, str(SAMPLE), *extra, *args])
     assert result.exit_code == 0, result.output
-    data = json.loads(result.output)
+    data = json.loads(result.stdout)
     body = data["bodies"][0] if command != "analyze" else data
     if command == "gate":
         body = body["analysis"]

@@ -144,6 +144,33 @@ def test_writer_refuses_to_overwrite_and_is_atomic(body_file, block_body, monkey
     assert [p.name for p in body_file.parent.iterdir()] == [body_file.name]
 
 
+def test_a_terminated_writer_leaves_no_temporary_and_a_killed_ones_is_swept(tmp_path, block_body):
+    """SIGTERM while writing removes the temporary file; one left by SIGKILL goes with the next write to the
+    same target (its process is gone), while another target's temporary stays."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    script = ("import sys, time\nfrom ffrf_advisor.io.atomic import atomic_path\n"
+              "with atomic_path(sys.argv[1]) as tmp:\n    tmp.write_bytes(b'x' * 1000)\n"
+              "    print('ready', flush=True)\n    time.sleep(60)\n")
+    target = tmp_path / "out.ffrf.h5"
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        child = subprocess.Popen([sys.executable, "-c", script, str(target)], stdout=subprocess.PIPE,
+                                 stderr=subprocess.PIPE, text=True)
+        line = child.stdout.readline().strip()
+        assert line == "ready", child.communicate(timeout=60)[1][-2000:]
+        child.send_signal(sig)
+        child.wait(timeout=30)
+        left = list(tmp_path.glob(".out.ffrf.h5.*.tmp"))
+        assert (left == []) is (sig == signal.SIGTERM), (sig, left)
+    other = tmp_path / ".other.ffrf.h5.1.abc.tmp"
+    other.write_bytes(b"")
+    time.sleep(0.01)
+    write_body(block_body, target)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".other.ffrf.h5.1.abc.tmp", "out.ffrf.h5"]
+
+
 def test_writes_are_bit_for_bit_reproducible(tmp_path, block_body):
     a, b = tmp_path / "a.ffrf.h5", tmp_path / "b.ffrf.h5"
     write_body(block_body, a)

@@ -165,6 +165,14 @@ def _spin_axis(text) -> tuple[float, float, float] | None:
     return tuple(values)
 
 
+def _is_number(text) -> bool:
+    try:
+        float(str(text))
+    except ValueError:
+        return False
+    return True
+
+
 def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_allow=None, q_cap=None,
                   deflection_cap=None, q_max=None, n_ratio=None, threshold=None, config=None,
                   spin_axis=None) -> Options:
@@ -175,7 +183,11 @@ def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_
     amp = AmplitudeOptions(sigma_allow=pick(sigma_allow, "sigma_allow", AmplitudeOptions.sigma_allow),
                            q_cap=pick(q_cap, "q_cap", AmplitudeOptions.q_cap),
                            deflection_cap=pick(deflection_cap, "deflection_cap"), q_max=_numbers("--q-max", q_max))
-    situation = Situation(w_op=None if speed is None else parse_speed(speed), f_sys=pick(f_sys, "f_sys"),
+    w_op = None if speed is None else parse_speed(speed)
+    if w_op is not None and _is_number(speed):
+        err.print(f"note: speed {speed} has no unit: read as {w_op:g} rad/s (write e.g. 3000rpm or 50Hz)",
+                  highlight=False)
+    situation = Situation(w_op=w_op, f_sys=pick(f_sys, "f_sys"),
                           connection=pick(connection, "connection", "free"), widening=widening,
                           thresholds=_thresholds(threshold, cfg.get("thresholds", {})),
                           spin_axis=_spin_axis(pick(spin_axis, "spin_axis")))

@@ -1,8 +1,15 @@
-"""Atomic output: write to a temporary file beside the target, then rename."""
+"""Atomic output: write to a temporary file beside the target, fsync, then rename.
+
+The temporary file ``.NAME.PID.*.tmp`` is removed on any failure and on
+SIGTERM (in the main thread); one left by a killed process (SIGKILL, power
+loss) is swept by the next write to the same target once its process is gone.
+"""
 from __future__ import annotations
 
 import os
+import signal
 import tempfile
+import threading
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
@@ -21,15 +28,61 @@ def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[
         raise FFRFError(f"{target}: exists; refusing to overwrite (use --force)")
     if not target.parent.is_dir():
         raise FFRFError(f"{target}: directory {target.parent} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    _sweep_stale(target)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=target.parent)
     os.close(fd)
     tmp = Path(tmp)
     os.chmod(tmp, _mode(target))
     try:
-        yield tmp
-        os.replace(tmp, target)
+        with _terminate_as_exit():
+            yield tmp
+            _fsync(tmp)
+            os.replace(tmp, target)
+            _fsync(target.parent)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def _sweep_stale(target: Path) -> None:
+    """Remove temporaries of ``target`` whose writing process no longer exists."""
+    for old in target.parent.glob(f".{target.name}.*.tmp"):
+        pid = old.name[len(target.name) + 2:].split(".", 1)[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            old.unlink(missing_ok=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _fsync(path: Path) -> None:
+    """Flush a file (or a directory entry) to the disk before relying on it."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+@contextmanager
+def _terminate_as_exit():
+    """SIGTERM raises SystemExit while writing (main thread only), so the temporary file is removed."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    def stop(signum, frame):  # noqa: ARG001
+        raise SystemExit(128 + signum)
+    previous = signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def _mode(target: Path) -> int:

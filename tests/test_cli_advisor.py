@@ -255,3 +255,19 @@ def test_every_analysing_command_takes_the_same_analysis_options(command):
         assert body["amplitudes"]["sigma_allow"] == 250.0 and body["significance"]["n_ratio"] == 6
         dI_Q = next(r for r in body["rules"] if r["name"] == "dI_Q")
         assert body["situation"]["spin_axis"] == [0.0, 0.0, 1.0] and dI_Q["threshold"] == 0.5 and not dI_Q["fired"]
+
+
+def test_analyze_and_compare_stay_right_at_80_columns():
+    """Stacked evidence: every term of the advice appears whole, no line is wider than 80; compare's labels
+    carry units and each body's values stay in its own column."""
+    text = runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "300rad/s"], env={"COLUMNS": "80"}).stdout
+    assert max(len(line) for line in text.splitlines()) <= 80
+    advice = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "300rad/s", "--json"]).stdout)
+    evidence = text[text.index("evidence per rule"):]
+    assert all(term in evidence for term in advice["terms"] if term != "gyro0") and "…" not in evidence
+    plate = SAMPLE.parent / "plate.ffrf.h5"
+    table = runner.invoke(app, ["compare", str(SAMPLE), str(plate), "--speed", "1rad/s"], env={"COLUMNS": "80"}).stdout
+    assert max(len(line) for line in table.splitlines()) <= 80
+    assert "mass [t]" in table and "q_max [sqrt(t) mm]" in table and "f [Hz]" in table
+    mass_row = next(line for line in table.splitlines() if line.startswith("│ mass"))
+    assert mass_row.split("│")[2].strip() == "0.00628" and mass_row.split("│")[3].strip() == "0.00353"

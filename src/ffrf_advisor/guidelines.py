@@ -361,6 +361,7 @@ def _rules_IV(body, sig, sit, w_op, ratio, stiff, inertia_fired) -> list[Rule]:
     full = fired and (inertia_fired or value > cthr)
     reason = (("rule III fired (beam-like or rotationally soft body); " if inertia_fired else "")
               + f"r_cor = {value:.3g} {'>' if value > cthr else '<='} {cthr:g} at w_op ({_axis_text(sit, k)}): "
-              "frequency change by the deformation-dependent Coriolis terms")
+              "frequency change by the deformation-dependent Coriolis terms"
+              + ("" if fired else "; not added: the speed ratio does not call for Coriolis terms"))
     rules.append(Rule("IV", "cor_deformation", value, cthr, full, DEFORMATION_CORIOLIS if full else (), reason))
     return rules

@@ -40,6 +40,11 @@ class Units:
     def stress(self) -> str:
         return f"{self.force}/{self.length}^2"
 
+    @property
+    def frequency(self) -> str:
+        """Cycles per time unit: Hz for seconds (one name for it in every command)."""
+        return "Hz" if self.time == "s" else f"1/{self.time}"
+
     def __str__(self) -> str:
         return f"{self.mass}-{self.length}-{self.force}-{self.time}"
 

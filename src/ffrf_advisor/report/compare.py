@@ -1,9 +1,11 @@
 """The paper-style comparison of several bodies (G Figs. 3, 5, 7, 8, 10, Tables 2-5): `compare`."""
 from __future__ import annotations
 
+from rich.markup import escape
 from rich.table import Table
 
 from ..analysis import Analysis
+from ..units import TIME, Units
 from .json_out import SCHEMA_VERSION, json_array, json_number, json_ratio
 
 N_SHOWN = 10  # the paper's figures show the first ten modes
@@ -18,7 +20,7 @@ def comparison(analyses: list[Analysis], sources: list[str]) -> dict:
         bodies.append({
             "file": source, "name": b.name, "units": str(b.units), "mass": b.mass,
             "largest_dimension": json_number(b.largest_dimension()),
-            "frequencies": json_array(b.frequencies_hz[:n]),
+            "frequencies": json_array(b.frequencies_hz[:n] / float(TIME[b.units.time])),  # Hz whatever the units
             "sigma_max": json_array(None if b.sigma_max is None else b.sigma_max[:n]),
             "q_max": json_array(amp.q_max[:n]), "q_max_governs": list(amp.governs[:n]),
             "dI_L": json_array(sig.max_first("dI_L")), "dI_Q": json_array(sig.max_first("dI_Q")),
@@ -47,13 +49,14 @@ def comparison_table(data: dict) -> Table:
     table.add_column("quantity")
     for b in bodies:
         table.add_column(b["name"], overflow="fold")
+    u = _shared_units(bodies)
     rows = [
         ("units", lambda b: b["units"]),
-        ("mass", lambda b: _fmt(b["mass"])),
-        ("largest dimension", lambda b: _fmt(b["largest_dimension"])),
+        (f"mass [{u.mass if u else 'units'}]", lambda b: _fmt(b["mass"])),
+        (f"largest dimension [{u.length if u else 'units'}]", lambda b: _fmt(b["largest_dimension"])),
         ("f [Hz]", lambda b: _vector(b["frequencies"])),
-        ("sigma_vM at q=1", lambda b: _vector(b["sigma_max"])),
-        ("q_max", lambda b: _vector(b["q_max"])),
+        (f"sigma_vM at q=1 [{u.stress if u else 'units'}]", lambda b: _vector(b["sigma_max"])),
+        (f"q_max [{f'sqrt({u.mass}) {u.length}' if u else 'units'}]", lambda b: _vector(b["q_max"])),
         ("q_max,1 governed by", lambda b: b["q_max_governs"][0]),
         ("dI_L axes 1 2 3", lambda b: _vector(b["dI_L"])),
         ("dI_Q axes 1 2 3", lambda b: _vector(b["dI_Q"])),
@@ -65,8 +68,14 @@ def comparison_table(data: dict) -> Table:
         ("level", lambda b: b["level"]),
     ]
     for label, cell in rows:
-        table.add_row(label, *(cell(b) for b in bodies))
+        table.add_row(escape(label), *(escape(cell(b)) for b in bodies))  # "[t]" is not markup
     return table
+
+
+def _shared_units(bodies: list[dict]) -> Units | None:
+    """The bodies' common unit system (labels then carry it), None when they differ (see the units row)."""
+    names = {b["units"] for b in bodies}
+    return Units.parse(names.pop()) if len(names) == 1 else None
 
 
 def _ratio_text(r: dict | None) -> str:

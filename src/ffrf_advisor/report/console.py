@@ -8,6 +8,7 @@ from contextlib import contextmanager
 import numpy as np
 from rich.console import Console
 from rich.markup import escape
+from rich.padding import Padding
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
@@ -39,7 +40,7 @@ def body_summary(console: Console, body: FlexibleBody, checks: list[Check]) -> N
     console.print(f"I0 {_unit(f'{u.mass} {u.length}^2')}\n{_matrix(body.I0)}")
     modes = Table(title=f"{body.nf} flexible modes")
     modes.add_column("mode", justify="right")
-    modes.add_column(f"f {_unit(f'1/{u.time}')}", justify="right")
+    modes.add_column(f"f {_unit(u.frequency)}", justify="right")
     modes.add_column(f"lambda {_unit(f'1/{u.time}^2')}", justify="right")
     modes.add_column(f"sigma_vM,max at q=1 {_unit(u.stress)}", justify="right")
     for p in range(body.nf):
@@ -86,7 +87,7 @@ def analysis_summary(console: Console, a) -> None:
         console.print(f"[yellow]warning[/yellow]: {w}")
     t = Table(title=f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "
                     f"sigma_allow {amp.sigma_allow:.4g} {u.stress})")
-    for col in ("mode", f"f {_unit(f'1/{u.time}')}", f"q_max {_unit(f'sqrt({u.mass}) {u.length}')}", "governs",
+    for col in ("mode", f"f {_unit(u.frequency)}", f"q_max {_unit(f'sqrt({u.mass}) {u.length}')}", "governs",
                 "sigma/sigma_allow", "deflection/L"):
         t.add_column(col, justify="left" if col == "governs" else "right")
     for p in range(b.nf):
@@ -117,14 +118,21 @@ def analysis_summary(console: Console, a) -> None:
         g.add_row(name, f"{mag.max_abs:.3e}", f"{mag.mean_nonzero:.3e}", f"{mag.frobenius:.3e}")
     console.print(g)
     _basis_table(console, a)
-    r = Table(title="evidence per rule (theory 8)")
-    for col in ("rule", "measure", "value", "threshold", "fired", "terms", "reason"):
-        r.add_column(col)
-    for rule in adv.rules:
-        fired = "not evaluated" if rule.fired is None else ("yes" if rule.fired else "no")
-        r.add_row(rule.rule, rule.name, "-" if rule.value is None else f"{rule.value:.3g}",
-                  "-" if rule.threshold is None else f"{rule.threshold:g}", fired, ", ".join(rule.terms), rule.reason)
-    console.print(r)
+    _evidence(console, adv.rules)
+
+
+def _evidence(console: Console, rules) -> None:
+    """One block per rule, stacked (right at any width): level, measure, value against threshold, outcome and
+    terms on one line, the reason indented below."""
+    console.print("[bold]evidence per rule (theory 8)[/bold]")
+    for rule in rules:
+        fired = "not evaluated" if rule.fired is None else ("fired" if rule.fired else "not fired")
+        value = "" if rule.value is None else f"{rule.value:.3g}"
+        if rule.threshold is not None and rule.value is not None:
+            value += f" (threshold {rule.threshold:g})"
+        terms = f" -> {', '.join(rule.terms)}" if rule.terms else ""
+        console.print(f"{rule.rule:<4}{rule.name:<19}{value + '  ' if value else ''}{fired}{terms}", highlight=False)
+        console.print(Padding(escape(rule.reason), (0, 0, 0, 4)), highlight=False)
 
 
 def _basis_table(console: Console, a) -> None:

@@ -120,6 +120,8 @@ def test_sample_command_writes_the_recipe_and_refuses_to_overwrite(tmp_path, shi
     out = tmp_path / "beam.ffrf.h5"
     result = runner.invoke(app, ["sample", "beam", "-o", str(out)])
     assert result.exit_code == 0, result.output
+    steps = [line for line in result.stderr.splitlines() if line.startswith("beam: ")]  # progress on stderr
+    assert len(steps) == 4 and "modal analysis" in steps[1] and "so far" in steps[0]
     made = read_body(out, load_fe=True)
     assert compare_modal_bodies(made, shipped["beam"], sample("beam", keep_stiffness=True).fe.K).ok
     stamp = out.stat().st_mtime_ns

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import functools
 import json
+import time
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -283,7 +284,9 @@ def sample(name: str = typer.Argument(..., help=f"One of: {', '.join(SAMPLES)}."
     if output.exists() and not force:
         raise FFRFError(f"{output}: exists; refusing to overwrite (use --force)")
     format_of(output)  # an unknown suffix fails before the minutes of FE work
-    body = make_sample(name, refine)
+    start = time.perf_counter()
+    body = make_sample(name, refine, report=lambda step: err.print(
+        f"{name}: {step} ({time.perf_counter() - start:.0f} s so far)", highlight=False))
     write_body(body, output, overwrite=force)
     out.print(f"wrote {output}: {body.name}, {body.nf} modes, f1 = {body.frequencies_hz[0]:.4g} Hz, "
               f"{body.fe.mesh.n_nodes} nodes")

@@ -126,13 +126,14 @@ RECIPES: dict[str, tuple[Callable[[int], Mesh], object, str]] = {
 SAMPLES = tuple(RECIPES)
 
 
-def sample(name: str, refine: int = 1, keep_stiffness: bool = False) -> FlexibleBody:
-    """The sample body ``name`` at mesh refinement ``refine`` (1: the shipped one), K only when asked."""
+def sample(name: str, refine: int = 1, keep_stiffness: bool = False, report=None) -> FlexibleBody:
+    """The sample body ``name`` at mesh refinement ``refine`` (1: the shipped one), K only when asked;
+    ``report(step)`` hears of each step of the FE work."""
     if name not in RECIPES:
         raise FFRFError(f"sample {name!r}: expected one of {', '.join(SAMPLES)}")
     if not 1 <= refine <= MAX_REFINE:
         raise FFRFError(f"--refine {refine}: expected an integer from 1 to {MAX_REFINE} "
                         "(the element count grows with its cube)")
     make_mesh, material, _ = RECIPES[name]
-    body = modal_body(make_mesh(refine), material, N_MODES, name=name)
+    body = modal_body(make_mesh(refine), material, N_MODES, name=name, report=report)
     return body if keep_stiffness else _without_stiffness(body)

@@ -18,15 +18,21 @@ from .stress import modal_von_mises
 
 
 def modal_body(mesh: Mesh, material: Material, n_modes: int, name: str = "body",
-               lumping: str | None = None) -> FlexibleBody:
-    """Free-free modal body of ``mesh`` in t-mm-N-s, in its CoM principal frame (theory sections 1-3).
+               lumping: str | None = None, report=None) -> FlexibleBody:
+    """Free-free modal body of ``mesh`` in t-mm-N-s, in its CoM principal frame (theory sections 1-3), with
+    its static centrifugal response and geometric stiffness (theory 9, 11).
 
     ``lumping`` None gives the consistent mass; 'rowsum' or 'hrz' a diagonal
-    mass, used for both the eigenproblem and the invariants.
+    mass, used for both the eigenproblem and the invariants. ``report(step)``,
+    when given, hears of each step before it starts (long work shows progress).
     """
+    say = report or (lambda step: None)
+    say(f"assembling mass and stiffness ({3 * mesh.n_nodes} DOFs)")
     Ms = mass_matrix(mesh, material.rho, lumping)
     K = stiffness_matrix(mesh, material)
+    say(f"free-free modal analysis ({n_modes} modes)")
     modes = free_free_modes(K, Ms, mesh.points, n_modes)
+    say("modal stresses")
     stress = modal_von_mises(mesh, material, modes.Phi)
     provenance = Provenance(
         source="ffrf_advisor.fe generator",
@@ -36,6 +42,7 @@ def modal_body(mesh: Mesh, material: Material, n_modes: int, name: str = "body",
                + (f", {lumping} lumped mass" if lumping else "")),
     )
     body = fe_body(name, mesh, Ms, modes.Phi, modes.eigenvalues, provenance, K, stress, material)
+    say("static centrifugal response and geometric stiffness")
     return with_centrifugal_response(body)
 
 

@@ -271,3 +271,26 @@ def test_analyze_and_compare_stay_right_at_80_columns():
     assert "mass [t]" in table and "q_max [sqrt(t) mm]" in table and "f [Hz]" in table
     mass_row = next(line for line in table.splitlines() if line.startswith("│ mass"))
     assert mass_row.split("│")[2].strip() == "0.00628" and mass_row.split("│")[3].strip() == "0.00353"
+
+
+@pytest.mark.parametrize("command, schema, extra", [
+    ("info", "info-schema.json", []),
+    ("analyze", "json-schema.json", ["--speed", "300rad/s"]),
+    ("gate", "gate-schema.json", ["--max-level", "IV", "--speed", "300rad/s"]),
+    ("compare", "compare-schema.json", ["--speed", "1rad/s"]),
+    ("settings", "settings-schema.json", ["--speed", "300rad/s"]),
+])
+def test_every_json_output_follows_its_documented_schema(command, schema, extra):
+    """One documented schema per command (simulate and verify are checked in their own tests); the help names
+    it, and a broken document fails it."""
+    docs = Path(__file__).resolve().parent.parent / "docs"
+    spec = json.loads((docs / schema).read_text())
+    result = runner.invoke(app, [command, str(SAMPLE), *extra, "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    jsonschema.validate(data, spec)
+    if command == "gate":
+        jsonschema.validate(data["bodies"][0]["analysis"], SCHEMA)
+    assert f"docs/{schema}" in runner.invoke(app, [command, "--help"], env={"COLUMNS": "200"}).stdout
+    with pytest.raises(jsonschema.ValidationError):
+        jsonschema.validate({**data, "schema_version": 99}, spec)

@@ -23,7 +23,7 @@ from .io.atomic import atomic_path
 from .report.compare import comparison, comparison_table
 from .report.console import analysis_summary, body_summary, progress_bar, simulation_report, verification_report
 from .adequacy import basis_errors
-from .report.json_out import SCHEMA_VERSION, analysis_json
+from .report.json_out import SCHEMA_VERSION, analysis_json, info_json
 from .samples import SAMPLES, sample as make_sample
 from .sim.integrate import INTEGRATORS, integrate
 from .sim.model import build_model, initial_state
@@ -75,10 +75,15 @@ def main(version: bool = typer.Option(False, "--version", callback=_version, is_
 @app.command()
 @handles_errors
 def info(body: Path = typer.Argument(..., help="Body file (any format, see `formats`)."),
-         eigenvalues: Eigenvalues = None, density: Density = None):
+         eigenvalues: Eigenvalues = None, density: Density = None,
+         as_json: InfoJson = False):
     """Mass, CoM, I0, eigenfrequencies, modal stress and the checks of theory section 4."""
     b = _read(body, eigenvalues, density, load_fe=False)
-    body_summary(out, b, run_checks(b))
+    checks = run_checks(b)
+    if as_json:
+        print(json.dumps(info_json(b, checks, str(body)), indent=1))
+        return
+    body_summary(out, b, checks)
 
 
 Speed = Annotated[Optional[str], typer.Option("--speed", help="Operating angular speed: 314rad/s, 3000rpm, 50Hz.")]
@@ -93,7 +98,13 @@ QMax = Annotated[Optional[str], typer.Option("--q-max", help="q_max per mode: co
 NRatio = Annotated[Optional[int], typer.Option("--n-ratio", help="Modes used for the norm ratios (min(10, nf)).")]
 Threshold = Annotated[Optional[list[str]], typer.Option("--threshold", help="Override a threshold: NAME=VALUE.")]
 Config = Annotated[Optional[Path], typer.Option("--config", help="TOML config (default ffrf-advisor.toml or pyproject).")]
-AsJson = Annotated[bool, typer.Option("--json", help="Print JSON (docs/json-schema.json) instead of tables.")]
+def _json_option(schema: str):
+    return Annotated[bool, typer.Option("--json", help=f"Print JSON (docs/{schema}) instead of tables.")]
+
+
+AsJson = _json_option("json-schema.json")
+InfoJson, GateJson, CompareJson = (_json_option(f"{c}-schema.json") for c in ("info", "gate", "compare"))
+SettingsJson, SimulateJson, VerifyJson = (_json_option(f"{c}-schema.json") for c in ("settings", "simulate", "verify"))
 SpinAxis = Annotated[Optional[str], typer.Option(
     "--spin-axis", help="Spin axis: principal axis 1, 2, 3 or a body-frame vector X,Y,Z (default: each, the worst decides).")]
 
@@ -225,7 +236,7 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
          junit: Optional[Path] = typer.Option(None, "--junit", help="Write JUnit XML here."),
          force: bool = typer.Option(False, "--force", help="Let --junit replace a file that is not a JUnit report."),
          jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Bodies analysed in parallel."),
-         as_json: AsJson = False):
+         as_json: GateJson = False):
     """CI gate: exit 0 when every body's level is within --max-level, 1 when one is not, 2 on bad input."""
     max_level = max_level.strip().upper()
     if max_level not in LEVELS:
@@ -259,7 +270,7 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed:
             f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
             sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
             n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
-            eigenvalues: Eigenvalues = None, density: Density = None, as_json: AsJson = False):
+            eigenvalues: Eigenvalues = None, density: Density = None, as_json: CompareJson = False):
     """Paper-style comparison of bodies: frequencies, stress, q_max, inertia, coupling and norm ratios."""
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
                             n_ratio, threshold, config, spin_axis)
@@ -351,14 +362,15 @@ def list_formats():
 def settings(body: Path = typer.Argument(..., help="Body file."),
              solver: str = typer.Option("adams", "--solver", help=f"Solver: {', '.join(SOLVERS)}."),
              speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
-             threshold: Threshold = None, config: Config = None, as_json: AsJson = False,
+             threshold: Threshold = None, config: Config = None, as_json: SettingsJson = False,
              eigenvalues: Eigenvalues = None, density: Density = None):
     """Solver settings for the advised term set (Adams: coupling option and INVARIANTS= pattern)."""
     if solver not in SOLVERS:
         raise FFRFError(f"--solver {solver!r}: expected one of {', '.join(SOLVERS)}")
     options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config)
     result = run_analysis(_read(body, eigenvalues, density), options)
-    data = {"level": result.advice.level, "terms": list(result.advice.terms), **adams_settings(result.advice.terms),
+    data = {"schema_version": 1, "level": result.advice.level, "terms": list(result.advice.terms),
+            **adams_settings(result.advice.terms),
             "warnings": list(result.advice.warnings)}
     if as_json:
         print(json.dumps(data, indent=1))
@@ -395,7 +407,7 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
              output_step: Optional[float] = typer.Option(None, "--output-step", help="Sampling interval [s]."),
              output: Optional[Path] = typer.Option(None, "--output", "-o", help="Trajectory file (.csv or .h5)."),
              force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT."),
-             as_json: AsJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
+             as_json: SimulateJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
              widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
              threshold: Threshold = None, config: Config = None):
     """Simulate the free body with a term set (theory sections 5, 10); exit 3 when the integration fails."""
@@ -437,7 +449,7 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                                                  help="Judge by response errors (frequencies, means, oscillation "
                                                       "sizes, peak stress) or by trajectory errors."),
                    output: Optional[Path] = typer.Option(None, "--output", "-o", help="Directory for the figures."),
-                   as_json: AsJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
+                   as_json: VerifyJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
                    widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
                    threshold: Threshold = None, config: Config = None):
     """Verify the advice by simulation: scenes, term sets, errors, cost, stability, Campbell, figures."""

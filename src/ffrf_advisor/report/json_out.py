@@ -8,6 +8,7 @@ import numpy as np
 from .. import __version__
 from ..adequacy import summary as basis_summary
 from ..analysis import Analysis
+from ..checks import check_warnings
 from ..guidelines import THRESHOLDS, softening_situations
 from ..significance import Ratio
 from ..sim.cost import cost_ratio
@@ -34,17 +35,34 @@ def json_ratio(r: Ratio | None) -> dict | None:
             "both_vanish": r.value is None}
 
 
+def body_json(b, source: str) -> dict:
+    """The body's data in its units (the ``body`` object of the analyze and info JSON)."""
+    return {
+        "file": source, "name": b.name, "units": str(b.units), "nf": b.nf, "mass": b.mass,
+        "com": json_array(b.com), "I0": json_array(b.I0), "eigenvalues": json_array(b.eigenvalues),
+        "frequencies": json_array(b.frequencies_hz), "sigma_max": json_array(b.sigma_max),
+        "mass_matrix": b.provenance.mass_matrix, "source": b.provenance.source,
+    }
+
+
+def checks_json(checks) -> list[dict]:
+    """The checks of theory section 4 with the precision each assumed."""
+    return [{"name": c.name, "value": json_number(c.value), "tolerance": c.tolerance, "passed": c.passed,
+             "precision": c.precision} for c in checks]
+
+
+def info_json(b, checks, source: str) -> dict:
+    """The documented JSON of ``info --json`` (docs/info-schema.json)."""
+    return {"schema_version": 1, "body": body_json(b, source), "checks": checks_json(checks),
+            "warnings": check_warnings(list(checks))}
+
+
 def analysis_json(a: Analysis, source: str) -> dict:
     b, amp, sig, adv, sit = a.body, a.amplitudes, a.significance, a.advice, a.options.situation
     return {
         "schema_version": SCHEMA_VERSION,
         "tool": f"ffrf-advisor {__version__}",
-        "body": {
-            "file": source, "name": b.name, "units": str(b.units), "nf": b.nf, "mass": b.mass,
-            "com": json_array(b.com), "I0": json_array(b.I0), "eigenvalues": json_array(b.eigenvalues),
-            "frequencies": json_array(b.frequencies_hz), "sigma_max": json_array(b.sigma_max),
-            "mass_matrix": b.provenance.mass_matrix, "source": b.provenance.source,
-        },
+        "body": body_json(b, source),
         "situation": {
             "speed_rad_s": json_number(sit.w_op), "f_sys_hz": json_number(sit.f_sys), "connection": sit.connection,
             "widening": sit.widening, "thresholds": {**THRESHOLDS, **sit.thresholds},
@@ -77,6 +95,5 @@ def analysis_json(a: Analysis, source: str) -> dict:
                    "fired": None if r.fired is None else bool(r.fired), "terms": list(r.terms), "reason": r.reason} for r in adv.rules],
         "warnings": list(adv.warnings),
         "basis_adequacy": basis_summary(b, sit.w_op),
-        "checks": [{"name": c.name, "value": json_number(c.value), "tolerance": c.tolerance, "passed": c.passed,
-                    "precision": c.precision} for c in a.checks],
+        "checks": checks_json(a.checks),
     }

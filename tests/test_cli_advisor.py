@@ -11,10 +11,11 @@ import pytest
 from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
+from ffrf_advisor.schemas import schema
 
 from .test_cli import SAMPLE
 
-SCHEMA = json.loads((Path(__file__).resolve().parent.parent / "docs" / "json-schema.json").read_text())
+SCHEMA = schema("analyze")
 runner = CliRunner()
 
 
@@ -273,24 +274,44 @@ def test_analyze_and_compare_stay_right_at_80_columns():
     assert mass_row.split("│")[2].strip() == "0.00628" and mass_row.split("│")[3].strip() == "0.00353"
 
 
-@pytest.mark.parametrize("command, schema, extra", [
-    ("info", "info-schema.json", []),
-    ("analyze", "json-schema.json", ["--speed", "300rad/s"]),
-    ("gate", "gate-schema.json", ["--max-level", "IV", "--speed", "300rad/s"]),
-    ("compare", "compare-schema.json", ["--speed", "1rad/s"]),
-    ("settings", "settings-schema.json", ["--speed", "300rad/s"]),
+@pytest.mark.parametrize("command, extra", [
+    ("info", []),
+    ("analyze", ["--speed", "300rad/s"]),
+    ("gate", ["--max-level", "IV", "--speed", "300rad/s"]),
+    ("compare", ["--speed", "1rad/s"]),
+    ("settings", ["--speed", "300rad/s"]),
 ])
-def test_every_json_output_follows_its_documented_schema(command, schema, extra):
-    """One documented schema per command (simulate and verify are checked in their own tests); the help names
-    it, and a broken document fails it."""
-    docs = Path(__file__).resolve().parent.parent / "docs"
-    spec = json.loads((docs / schema).read_text())
+def test_every_json_output_follows_its_documented_schema(command, extra):
+    """One documented schema per command, shipped in the package and printed by `schema` (simulate and verify
+    are checked in their own tests); the help names it, and a broken document fails it."""
+    printed = runner.invoke(app, ["schema", command])
+    assert printed.exit_code == 0
+    spec = json.loads(printed.stdout)
+    assert spec == schema(command)
     result = runner.invoke(app, [command, str(SAMPLE), *extra, "--json"])
     assert result.exit_code == 0, result.output
     data = json.loads(result.stdout)
     jsonschema.validate(data, spec)
     if command == "gate":
         jsonschema.validate(data["bodies"][0]["analysis"], SCHEMA)
-    assert f"docs/{schema}" in runner.invoke(app, [command, "--help"], env={"COLUMNS": "200"}).stdout
+    helptext = " ".join(runner.invoke(app, [command, "--help"], env={"COLUMNS": "200"}).stdout.split())
+    assert f"ffrf-advisor schema {command}" in helptext
     with pytest.raises(jsonschema.ValidationError):
         jsonschema.validate({**data, "schema_version": 99}, spec)
+
+
+@pytest.mark.slow
+def test_the_wheel_ships_the_schemas_and_the_license(tmp_path):
+    """`pip install .` gives a package whose `schema` command works anywhere: the wheel holds the JSON
+    schemas and the LICENSE, not only .py files."""
+    import subprocess
+    import sys
+    import zipfile
+    root = Path(__file__).resolve().parent.parent
+    done = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q",
+                           "-w", str(tmp_path), str(root)], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    names = zipfile.ZipFile(next(tmp_path.glob("*.whl"))).namelist()
+    for command in ("info", "analyze", "gate", "compare", "settings", "simulate", "verify"):
+        assert f"ffrf_advisor/schemas/{command}.json" in names
+    assert any(n.endswith("/LICENSE") for n in names)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+from ffrf_advisor.schemas import schema
 from ffrf_advisor.io import read_body
 from ffrf_advisor.sim import equations as eq
 from ffrf_advisor.sim.integrate import Loads, Rhs, integrate
@@ -354,18 +355,18 @@ def test_simulate_json_follows_its_schema_and_reports_divergence():
     import json
 
     import jsonschema
-    schema = json.loads((DIR.parent / "docs" / "simulate-schema.json").read_text())
+    spec = schema("simulate")
     ok = _cli("simulate", DIR / "beam.ffrf.h5", "--terms", "II", "--omega0", "0,0,100", "--q0", "qmax",
               "--t-end", "0.002", "--json")
     assert ok.returncode == 0, ok.stderr
     data = json.loads(ok.stdout)
-    jsonschema.validate(data, schema)
+    jsonschema.validate(data, spec)
     assert data["terms"] == ["gyro0", "cf1"] and data["lagrangian"] is False and data["integrator"] == "dop853"
     bad = _cli("simulate", DIR / "beam.ffrf.h5", "--integrator", "rk4", "--step", "1e-3", "--q0", ",".join(["1"] * 16),
                "--t-end", "1", "--json")  # h Omega_16 = 20, far beyond 2 sqrt 2
     assert bad.returncode == 3
     data = json.loads(bad.stdout)
-    jsonschema.validate(data, schema)
+    jsonschema.validate(data, spec)
     assert data["failed"] and 0 < data["t_fail"] < 1 and data["reason"]
 
 

@@ -10,6 +10,7 @@ import jsonschema
 import numpy as np
 import pytest
 
+from ffrf_advisor.schemas import schema
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.fe.build import modal_body
 from ffrf_advisor.fe.material import STEEL
@@ -149,7 +150,7 @@ def test_verify_command_on_a_small_body_writes_json_and_figures(tmp_path):
                        capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
-    jsonschema.validate(data, json.loads((ROOT / "docs" / "verify-schema.json").read_text()))
+    jsonschema.validate(data, schema("verify"))
     assert [s["name"] for s in data["scenes"]] == ["free-spin", "torque-pulse"]
     for stem in ("work_precision", "drift", "stability", "campbell", "trajectories_free-spin"):
         for suffix in ("png", "svg"):

@@ -24,6 +24,7 @@ from .report.compare import comparison, comparison_table
 from .report.console import analysis_summary, body_summary, progress_bar, simulation_report, verification_report
 from .adequacy import basis_errors
 from .report.json_out import SCHEMA_VERSION, analysis_json, info_json
+from .schemas import COMMANDS as SCHEMA_COMMANDS, schema_text
 from .samples import SAMPLES, sample as make_sample
 from .sim.integrate import INTEGRATORS, integrate
 from .sim.model import build_model, initial_state
@@ -98,13 +99,14 @@ QMax = Annotated[Optional[str], typer.Option("--q-max", help="q_max per mode: co
 NRatio = Annotated[Optional[int], typer.Option("--n-ratio", help="Modes used for the norm ratios (min(10, nf)).")]
 Threshold = Annotated[Optional[list[str]], typer.Option("--threshold", help="Override a threshold: NAME=VALUE.")]
 Config = Annotated[Optional[Path], typer.Option("--config", help="TOML config (default ffrf-advisor.toml or pyproject).")]
-def _json_option(schema: str):
-    return Annotated[bool, typer.Option("--json", help=f"Print JSON (docs/{schema}) instead of tables.")]
+def _json_option(command: str):
+    return Annotated[bool, typer.Option("--json", help=f"Print JSON (its schema: `ffrf-advisor schema {command}`) "
+                                                        "instead of tables.")]
 
 
-AsJson = _json_option("json-schema.json")
-InfoJson, GateJson, CompareJson = (_json_option(f"{c}-schema.json") for c in ("info", "gate", "compare"))
-SettingsJson, SimulateJson, VerifyJson = (_json_option(f"{c}-schema.json") for c in ("settings", "simulate", "verify"))
+AsJson = _json_option("analyze")
+InfoJson, GateJson, CompareJson = (_json_option(c) for c in ("info", "gate", "compare"))
+SettingsJson, SimulateJson, VerifyJson = (_json_option(c) for c in ("settings", "simulate", "verify"))
 SpinAxis = Annotated[Optional[str], typer.Option(
     "--spin-axis", help="Spin axis: principal axis 1, 2, 3 or a body-frame vector X,Y,Z (default: each, the worst decides).")]
 
@@ -348,6 +350,15 @@ def augment(body: Path = typer.Argument(..., help="Body file with FE data and ma
     out.print(f"wrote {output}: {new.name}, {b.nf} + {len(chosen)} -> {new.nf} modes; energy-norm error of "
               "the static centrifugal deflection about axes 1, 2, 3: " + ", ".join(f"{e:.2g}" for e in errors),
               highlight=False)
+
+
+@app.command("schema")
+@handles_errors
+def schema_command(command: str = typer.Argument(..., help=f"One of: {', '.join(SCHEMA_COMMANDS)}.")):
+    """Print the JSON schema of a command's --json output (shipped in the package)."""
+    if command not in SCHEMA_COMMANDS:
+        raise FFRFError(f"schema {command!r}: expected one of {', '.join(SCHEMA_COMMANDS)}")
+    print(schema_text(command), end="")
 
 
 @app.command("formats")

@@ -1,4 +1,4 @@
-"""The versioned JSON of `analyze` and `gate` (schema: docs/json-schema.json)."""
+"""The versioned JSON of `analyze` and `gate` (schema: src/ffrf_advisor/schemas/analyze.json)."""
 from __future__ import annotations
 
 import math
@@ -52,7 +52,7 @@ def checks_json(checks) -> list[dict]:
 
 
 def info_json(b, checks, source: str) -> dict:
-    """The documented JSON of ``info --json`` (docs/info-schema.json)."""
+    """The documented JSON of ``info --json`` (src/ffrf_advisor/schemas/info.json)."""
     return {"schema_version": 1, "body": body_json(b, source), "checks": checks_json(checks),
             "warnings": check_warnings(list(checks))}
 

@@ -1,4 +1,4 @@
-"""The versioned JSON of `verify` (schema: docs/verify-schema.json), read from a verify.study.Study."""
+"""The versioned JSON of `verify` (schema: src/ffrf_advisor/schemas/verify.json), read from a verify.study.Study."""
 from __future__ import annotations
 
 from dataclasses import asdict
@@ -31,7 +31,7 @@ def _clean(obj):
 
 
 def study_json(st: Study, source: str) -> dict:
-    """The documented JSON of ``verify --json`` (docs/verify-schema.json)."""
+    """The documented JSON of ``verify --json`` (src/ffrf_advisor/schemas/verify.json)."""
     a, ver = st.analysis, st.verification
     per_s = float(TIME[a.body.units.time])
     return _clean({

@@ -1,7 +1,7 @@
 """The whole verification of one body: scenes, term sets, work-precision, stability, Campbell, figures.
 
 ``ffrf-advisor verify`` calls ``run_study``; ``report.verify_json`` turns
-the Study into the JSON of docs/verify-schema.json.
+the Study into the JSON of src/ffrf_advisor/schemas/verify.json.
 """
 from __future__ import annotations
 

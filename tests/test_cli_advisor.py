@@ -315,3 +315,13 @@ def test_the_wheel_ships_the_schemas_and_the_license(tmp_path):
     for command in ("info", "analyze", "gate", "compare", "settings", "simulate", "verify"):
         assert f"ffrf_advisor/schemas/{command}.json" in names
     assert any(n.endswith("/LICENSE") for n in names)
+
+
+def test_gate_names_each_file_once(tmp_path):
+    bad = tmp_path / "bad.ffrf.h5"
+    bad.write_bytes(b"x")
+    result = runner.invoke(app, ["gate", str(SAMPLE), str(bad), "--max-level", "IV"], env={"COLUMNS": "300"})
+    assert result.exit_code == 2
+    line = next(line for line in result.stdout.splitlines() if line.startswith("ERROR"))
+    assert line.count(str(bad)) == 1 and "expected" in line
+    assert next(line for line in result.stdout.splitlines() if line.startswith("ok")).count(str(SAMPLE)) == 1

@@ -203,3 +203,10 @@ def test_directories_and_fifos_are_not_bodies(tmp_path):
     for path, kind in ((folder, "a directory"), (fifo, "special file")):
         result = runner.invoke(app, ["info", str(path)])
         assert result.exit_code == 2 and kind in result.output and len(result.output.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("suffix", [".ffinv.json", ".ffinv.h5"])
+def test_convert_keeps_the_body_name(tmp_path, beam, suffix):
+    path = tmp_path / f"renamed{suffix}"
+    write_body(beam, path)
+    assert read_body(path).name == "beam"

@@ -58,6 +58,7 @@ def _mesh_frequencies(body, k: int, s: float, count: int) -> np.ndarray:
     return np.sqrt(lam)
 
 
+@pytest.mark.slow  # seconds: kept out of the default run's 2-minute budget, run by CI
 def test_modal_stiffening_converges_to_the_full_mesh_analysis_of_the_spinning_prestressed_body(bar):
     """Spin at 80 % of the unstiffened s_crit about a transverse axis: the lowest four frequencies of the modal
     equations approach the all-DOF ones as modes are added (measured: 4, 8, 16 modes)."""
@@ -69,6 +70,7 @@ def test_modal_stiffening_converges_to_the_full_mesh_analysis_of_the_spinning_pr
     assert errors[2] < 0.01, errors
 
 
+@pytest.mark.slow  # seconds: kept out of the default run's 2-minute budget, run by CI
 def test_southwell_out_of_plane_bending_rises_more_than_in_plane_with_the_full_mesh_coefficients(bar):
     """Spin about axis 1 (across the bar): bending along axis 1 (out of the plane of rotation) rises by
     s^2 G, bending along axis 2 (in the plane) by s^2 (G - 1); the coefficients (f(s)^2 - f0^2) / s^2 match the

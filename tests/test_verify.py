@@ -48,6 +48,7 @@ def test_every_scene_lasts_a_few_periods_of_mode_1_and_of_the_rotation(beam):
         assert scene.speed == pytest.approx(300.0)
 
 
+@pytest.mark.slow  # seconds: kept out of the default run's 2-minute budget, run by CI
 def test_level_I_fails_on_the_spinning_beam_and_the_advice_holds(beam):
     """Spin about the long axis at 300 rad/s (45 % of s_crit): the W2 terms change the modes by O(1)."""
     v = verify(beam, [make_scene("free-spin", beam)], repeats=1)
@@ -68,6 +69,7 @@ def test_level_I_holds_on_the_carbody_at_a_low_speed():
     assert all(_row(v, "I", s).meets(0.01) for s in ("free-spin", "torque-pulse"))
 
 
+@pytest.mark.slow  # seconds: kept out of the default run's 2-minute budget, run by CI
 def test_a_broken_advice_is_called_unsafe(beam):
     """Judging level I as if it were the advice: the verdict names the scene and the quantity that broke it."""
     from dataclasses import replace
@@ -102,6 +104,7 @@ def test_explicit_euler_grows_at_any_step(beam):
     assert g.measured > 1 and g.measured == pytest.approx(g.predicted, rel=1e-6)
 
 
+@pytest.mark.slow  # seconds: kept out of the default run's 2-minute budget, run by CI
 def test_softening_divergence_sets_in_at_s_crit_and_not_without_cf2(beam):
     onset = stability.divergence_onset(beam)
     s_crit = softening_speeds(beam.body)

@@ -256,8 +256,10 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
     else:
         for r in results:
             status = "ERROR" if r["error"] else ("ok" if r["within"] else "EXCEEDS")
-            out.print(f"{status:8s} {r['file']}: " + (r["error"] or f"level {r['level']} (max {max_level})"),
-                      highlight=False)
+            text = r["error"] or f"{r['file']}: level {r['level']} (max {max_level})"
+            if r["error"] and not text.startswith(r["file"]):
+                text = f"{r['file']}: {text}"  # errors that name no file get it once
+            out.print(f"{status:8s} {text}", highlight=False)
             for w in r["warnings"]:
                 out.print(f"{'':8s} warning: {w}", highlight=False)
     if any(r["error"] for r in results):

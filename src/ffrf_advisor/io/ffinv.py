@@ -51,6 +51,7 @@ def document(body: FlexibleBody, I8_sign: str = "adams") -> dict:
         "frame": {"origin": "cm", "axes": "principal"},
         "conventions": {"skew": "a~b=axb", "I8_sign": I8_sign, "I9_order": "I9[j][k]=sum m Phi~_j Phi~_k",
                         "mode_normalisation": "mass"},
+        "name": body.name,
         "n_modes": body.nf,
         **to_adams(body.integrals, I8_sign),
         "eigenvalues": body.eigenvalues,
@@ -278,7 +279,10 @@ def body_from_document(path, doc: dict) -> FlexibleBody:
     sigma = d.array("max_von_mises", (nf,)) if "max_von_mises" in doc else None
     if sigma is not None and np.any(sigma < 0):
         d.fail("max_von_mises", "non-negative stresses")
-    body = FlexibleBody(name=os.path.basename(str(path)).split(".")[0], integrals=from_adams(inv, nf, sign),
+    name = doc.get("name", os.path.basename(str(path)).split(".")[0])
+    if not isinstance(name, str) or not name.strip():
+        d.fail("name", "a non-empty text (the body's name)", repr(name)[:80])
+    body = FlexibleBody(name=name, integrals=from_adams(inv, nf, sign),
                         eigenvalues=_eigenvalues(d, nf), units=units, sigma_max=sigma,
                         provenance=_provenance(d, path, inv))
     if (origin, axes) != ("cm", "principal"):

@@ -264,6 +264,7 @@ def test_analyze_and_compare_stay_right_at_80_columns():
     text = runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "300rad/s"], env={"COLUMNS": "80"}).stdout
     assert max(len(line) for line in text.splitlines()) <= 80
     advice = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "300rad/s", "--json"]).stdout)
+    assert "FFRF terms Lagrangian" in text and "not Lagrangian" not in text  # geo_stiff is not a drift warning
     evidence = text[text.index("evidence per rule"):]
     assert all(term in evidence for term in advice["terms"] if term != "gyro0") and "…" not in evidence
     plate = SAMPLE.parent / "plate.ffrf.h5"

@@ -17,6 +17,7 @@ from ..body import FlexibleBody
 from ..guidelines import softening_situations
 from ..checks import Check
 from ..sim.cost import cost_ratio
+from ..terms import is_lagrangian
 
 
 def _unit(text: str) -> str:
@@ -72,6 +73,10 @@ def checks_table(checks: list[Check]) -> Table:
 
 def _not_lagrangian(adv, nf: int) -> str:
     superset = adv.lagrangian_superset
+    ffrf = tuple(t for t in adv.terms if t != "geo_stiff")
+    if "geo_stiff" in adv.terms and is_lagrangian(ffrf):
+        return ("\n(FFRF terms Lagrangian: whole energy groups; geo_stiff, the spin-dependent stiffening of "
+                "theory 9, lies outside the kinetic energy)")
     return ("\n[yellow]not Lagrangian[/yellow] (theory 5: energy and |H| drift); smallest Lagrangian superset: "
             + (f"{', '.join(superset)} (right-hand side x{cost_ratio(superset, adv.terms, nf):.2f})" if superset
                else "none"))

@@ -65,3 +65,23 @@ def test_failed_assumptions_are_reported_with_their_caveat(tmp_path, block_body)
     assert result.exit_code == 0
     assert "FAIL" in result.output and "mass-normalised modes" in result.output
     assert "no stiffness matrix" in result.output
+
+
+def test_names_and_notes_from_a_file_are_sanitised_and_cut(tmp_path):
+    """A body named with a terminal escape and rich markup, with a 100 kB note and 500 notes: info and analyze
+    print neither escape nor markup, and a bounded amount of it (the rendering stays fast)."""
+    from dataclasses import replace
+
+    from ffrf_advisor.io import read_body, write_body
+    body = read_body(SAMPLE)
+    evil = replace(body, name="\x1b[31m[bold]evil\x07", provenance=body.provenance.__class__(
+        source="x" * 5000, notes=("n" * 100_000,) + tuple(f"note {i}" for i in range(500))))
+    path = tmp_path / "evil.ffrf.h5"
+    write_body(evil, path)
+    for command in ("info", "analyze"):
+        result = runner.invoke(app, [command, str(path)], env={"COLUMNS": "100"})
+        assert result.exit_code == 0, result.output
+        assert "\x1b" not in result.stdout and "\x07" not in result.stdout
+        assert "[bold]evil" in result.stdout  # shown literally, not as markup
+        assert len(result.stdout) < 60_000
+    assert "more notes" in runner.invoke(app, ["info", str(path)]).stdout

@@ -6,6 +6,7 @@ from rich.table import Table
 
 from ..analysis import Analysis
 from ..units import TIME, Units
+from .console import shown
 from .json_out import SCHEMA_VERSION, json_array, json_number, json_ratio
 
 N_SHOWN = 10  # the paper's figures show the first ten modes
@@ -48,7 +49,7 @@ def comparison_table(data: dict) -> Table:
                   show_lines=True)
     table.add_column("quantity")
     for b in bodies:
-        table.add_column(b["name"], overflow="fold")
+        table.add_column(shown(b["name"], 40), overflow="fold")
     u = _shared_units(bodies)
     rows = [
         ("units", lambda b: b["units"]),

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import time
+import unicodedata
 from pathlib import Path
 from contextlib import contextmanager
 
@@ -25,6 +26,17 @@ def _unit(text: str) -> str:
     return escape(f"[{text}]")
 
 
+SHOWN_CHARS, SHOWN_NOTES = 200, 20  # what a body file may put on the terminal per field and in notes
+
+
+def shown(text, limit: int = SHOWN_CHARS) -> str:
+    """Text from a body file made safe to display: control characters (terminal escapes) replaced by '?',
+    markup escaped, cut to ``limit`` characters with the count of the rest."""
+    text = "".join("?" if unicodedata.category(c) == "Cc" else c for c in str(text))
+    extra = len(text) - limit
+    return escape(text[:limit]) + (f"... (+{extra} characters)" if extra > 0 else "")
+
+
 def _matrix(a: np.ndarray) -> str:
     return "\n".join("  ".join(f"{x:>12.5e}" for x in row) for row in np.atleast_2d(a))
 
@@ -32,10 +44,13 @@ def _matrix(a: np.ndarray) -> str:
 def body_summary(console: Console, body: FlexibleBody, checks: list[Check]) -> None:
     """Mass, CoM, I0, eigenfrequencies and modal stress, and the checks of theory section 4."""
     u = body.units
-    console.print(f"[bold]{body.name}[/bold]  units {u}  ({body.provenance.mass_matrix} mass; "
-                  f"{body.provenance.source})")
-    for note in body.provenance.notes:
-        console.print(f"  {note}")
+    console.print(f"[bold]{shown(body.name)}[/bold]  units {u}  ({body.provenance.mass_matrix} mass; "
+                  f"{shown(body.provenance.source)})")
+    notes = body.provenance.notes
+    for note in notes[:SHOWN_NOTES]:
+        console.print(f"  {shown(note)}")
+    if len(notes) > SHOWN_NOTES:
+        console.print(f"  ... {len(notes) - SHOWN_NOTES} more notes")
     console.print(f"mass      {body.mass:.6e} {u.mass}")
     console.print(f"CoM       [{', '.join(f'{x:.4e}' for x in body.com)}] {u.length}")
     console.print(f"I0 {_unit(f'{u.mass} {u.length}^2')}\n{_matrix(body.I0)}")
@@ -86,7 +101,7 @@ def analysis_summary(console: Console, a) -> None:
     """Level and term set on top, then amplitudes, significance tables and the evidence per rule."""
     b, amp, sig, adv = a.body, a.amplitudes, a.significance, a.advice
     u = b.units
-    console.print(f"[bold]{b.name}[/bold]: level [bold]{adv.level}[/bold]   terms: {', '.join(adv.terms)}"
+    console.print(f"[bold]{shown(b.name)}[/bold]: level [bold]{adv.level}[/bold]   terms: {', '.join(adv.terms)}"
                   + ("   (Lagrangian)" if adv.lagrangian else _not_lagrangian(adv, b.nf)))
     for w in adv.warnings:
         console.print(f"[yellow]warning[/yellow]: {w}")

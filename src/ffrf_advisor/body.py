@@ -15,6 +15,11 @@ MASS_KINDS = ("consistent", "lumped", "unknown")
 SYM_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))  # the six centrifugal load cases kl (theory 9)
 
 
+def pairs_at(G: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """``G(w) = sum_kl w_k w_l G_kl`` from the six matrices of the load cases kl (theory 9)."""
+    return sum(w[k] * w[l] * (1 if k == l else 2) * g for (k, l), g in zip(SYM_PAIRS, G))
+
+
 def rotated_pairs(G: np.ndarray, R: np.ndarray) -> np.ndarray:
     """Six matrices G_kl of a quadratic form in w (``G(w) = sum_kl w_k w_l G_kl``) in the frame turned by R."""
     full = np.zeros((3, 3, *G.shape[1:]))

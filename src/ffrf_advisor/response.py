@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .body import SYM_PAIRS, FlexibleBody
+from .body import FlexibleBody, pairs_at
 from .significance import f_cf1
 from .terms import FULL
 
@@ -40,7 +40,7 @@ def geometric_matrix(body: FlexibleBody, a: np.ndarray) -> np.ndarray:
     """``G(a) = sum_kl a_k a_l G_kl`` (theory 9), zero when the body carries no geometric stiffness."""
     if body.geometric is None:
         return np.zeros((body.nf, body.nf))
-    return sum(a[k] * a[l] * (1 if k == l else 2) * Gc for (k, l), Gc in zip(SYM_PAIRS, body.geometric))
+    return pairs_at(body.geometric, a)
 
 
 def r_cf2(body: FlexibleBody, a, s: float) -> float:

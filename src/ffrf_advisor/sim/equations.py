@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..body import SYM_PAIRS  # order of the six G(w) matrices
+from ..body import pairs_at  # G(w) from the six G_kl (theory 9)
 from .model import N_ROT, Model
 
 
@@ -87,7 +87,7 @@ def flexible_force(m: Model, q, qd, w, fext) -> np.ndarray:
     if m.on("cor_coupling"):
         f -= 2 * coupling_matrix(m, qd).T @ w
     if m.on("geo_stiff"):
-        f -= sum(ww[k, l] * (1 if k == l else 2) * Gkl for (k, l), Gkl in zip(SYM_PAIRS, m.G)) @ q
+        f -= pairs_at(m.G, w) @ q
     return f
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from ffrf_advisor.errors import BodyFileError, FFRFError
-from ffrf_advisor.io import ffrf_h5, read_body, write_body
+from ffrf_advisor.io import ffrf_h5, guard, read_body, write_body
 
 
 @pytest.fixture
@@ -47,6 +47,7 @@ def test_round_trip_of_an_invariants_only_body(tmp_path, block_body):
 
 
 def test_default_read_does_not_touch_nodal_datasets(body_file, monkeypatch):
+    monkeypatch.setattr(guard, "FORK", False)  # the spy must see the reading, so it runs in this process
     touched = []
     original = h5py.Dataset.__getitem__
 

@@ -18,7 +18,7 @@ from .checks import run_checks
 from .errors import FFRFError
 from .gate import check_junit_target, run_gate, write_junit
 from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, parse_speed
-from .io import check_reader_options, format_of, formats, read_body, write_body
+from .io import check_reader_options, format_of, formats, limits, read_body, write_body
 from .io.atomic import atomic_path
 from .report.compare import comparison, comparison_table
 from .report.console import analysis_summary, body_summary, progress_bar, simulation_report, verification_report
@@ -67,10 +67,25 @@ def _version(value: bool):
         raise typer.Exit()
 
 
+def _max_memory(value: Optional[str]):
+    try:
+        limits.set_max_bytes(None if value is None else limits.parse_size(value, "--max-memory"))
+    except FFRFError as e:
+        err.print(f"error: {e}", markup=False, highlight=False, soft_wrap=True)
+        raise typer.Exit(EXIT_BAD_INPUT) from None
+
+
 @app.callback()
 def main(version: bool = typer.Option(False, "--version", callback=_version, is_eager=True,
-                                      help="Print the version and exit.")):
+                                      help="Print the version and exit."),
+         max_memory: Optional[str] = typer.Option(
+             None, "--max-memory", callback=_max_memory,
+             help=f"Most memory a body file may make the tool allocate: 8G, 500M (default ${limits.ENV} or 8G)."),
+         follow_outside: bool = typer.Option(
+             False, "--follow-outside", help="Follow references (HDF5 external links, XDMF data) to files "
+                                             "outside the body file's folder.")):
     """ffrf-advisor: guideline advisor for flexible bodies in the floating frame of reference."""
+    limits.follow_outside(follow_outside)
 
 
 @app.command()

@@ -13,3 +13,6 @@ class BodyFileError(FFRFError):
         self.path, self.field, self.expected, self.got = str(path), field, expected, got
         text = f"{path}: {field}: expected {expected}" + (f", got {got}" if got is not None else "")
         super().__init__(" ".join(text.split()))  # one line, whatever the cause said
+
+    def __reduce__(self):  # travels from the reading child (io.guard) with its fields
+        return (BodyFileError, (self.path, self.field, self.expected, self.got))

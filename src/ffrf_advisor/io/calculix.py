@@ -12,6 +12,7 @@ are dropped; a count other than six is reported in the provenance notes.
 """
 from __future__ import annotations
 
+import os
 import struct
 from pathlib import Path
 
@@ -26,6 +27,7 @@ from ..fe.material import Material
 from ..fe.mesh import Mesh
 from ..fe.stress import von_mises
 from . import Format, register
+from .limits import Budget, check_file_size
 
 # frd element type -> (meshio type, frd position of each VTK/deck node)
 ELEMENTS = {1: ("hexahedron", list(range(8))),
@@ -33,6 +35,8 @@ ELEMENTS = {1: ("hexahedron", list(range(8))),
 RIGID_TOL = 1e-6  # |lambda| / largest |lambda| below which a mode is rigid
 N_RIGID = 6
 MAX_COUNT = 10**8  # sanity bound on block sizes from headers
+LINE_MAX = 4096  # characters of one text line (frd records are under 100)
+ELEMENT_BYTES = 20 * 36  # memory of one parsed element (a list of up to 20 Python ints)
 ASCII_DIGITS = 6     # E12.5 columns: 6 significant digits
 FLOAT32_DIGITS = 7   # binary result blocks are float32
 
@@ -41,9 +45,7 @@ class _Frd:
     """A parsed .frd: node ids and coordinates, elements, and result blocks per mode."""
 
     def __init__(self, path):
-        self.path = path
-        self.data = Path(path).read_bytes()
-        self.pos = 0
+        self.path, self.budget = path, Budget(path)
         self.nodes: np.ndarray | None = None
         self.ids: np.ndarray | None = None
         self.elements: dict[str, list] = {}
@@ -51,28 +53,42 @@ class _Frd:
         self.frequencies: dict[int, float] = {}
         self.mode = 0
         self.digits = 17  # lowered by each result block to its precision
-        self._parse()
+        with open(path, "rb") as self.fh:  # streamed: memory follows what is parsed, not the file size
+            self.size = os.fstat(self.fh.fileno()).st_size
+            self._parse()
 
     def fail(self, field: str, expected: str, got: str | None = None):
         raise BodyFileError(self.path, field, expected, got)
 
+    def _left(self) -> int:
+        return self.size - self.fh.tell()
+
     def _line(self) -> str:
-        end = self.data.find(b"\n", self.pos)
-        if end < 0:
-            end = len(self.data)
-        line = self.data[self.pos:end].decode("latin-1")
-        self.pos = end + 1
-        return line
+        raw = self.fh.readline(LINE_MAX + 1)
+        if len(raw) > LINE_MAX:
+            self.fail("frd", f"text lines of at most {LINE_MAX} characters", "a longer line")
+        return raw.rstrip(b"\r\n").decode("latin-1")
+
+    def _peek(self, n: int) -> bytes:
+        at = self.fh.tell()
+        head = self.fh.read(n)
+        self.fh.seek(at)
+        return head
 
     def _take(self, n: int) -> bytes:
-        if n < 0 or self.pos + n > len(self.data):
+        if n < 0 or n > self._left():
             self.fail("frd", "a complete binary block", "truncated file")
-        chunk = self.data[self.pos:self.pos + n]
-        self.pos += n
-        return chunk
+        self.budget.take("frd", 2 * n)  # the bytes and the arrays made of them
+        return self.fh.read(n)
+
+    def _fits(self, count: int, record_bytes: int, field: str) -> None:
+        """A declared count of records of at least ``record_bytes`` each must fit in the rest of the file."""
+        if count * record_bytes > self._left():
+            self.fail(field, f"at most the {self._left() // record_bytes} records the rest of the file can hold",
+                      f"{count} declared (truncated file)")
 
     def _parse(self) -> None:
-        while self.pos < len(self.data):
+        while self._left() > 0:
             line = self._line()
             key = line[:6].strip()
             if key == "2C":
@@ -115,20 +131,28 @@ class _Frd:
             rec = np.frombuffer(raw, np.dtype([("id", "<i4"), ("x", f"<f{size}", 3)]))
             self.ids, self.nodes = rec["id"].astype(np.int64), rec["x"].astype(float)
             return
-        self.ids, self.nodes = self._ascii_records(fmt, 3, "2C")
+        self.ids, self.nodes = self._ascii_records(fmt, 3, "2C", count)
 
-    def _ascii_records(self, fmt: int, n: int, field: str) -> tuple[np.ndarray, np.ndarray]:
-        """Records ' -1 node v1 .. vn' up to ' -3' (node id in I10 for the long format 1, else I5)."""
+    def _ascii_records(self, fmt: int, n: int, field: str, count: int) -> tuple[np.ndarray, np.ndarray]:
+        """``count`` records ' -1 node v1 .. vn' up to ' -3' (node id in I10 for the long format 1, else I5)."""
         width = 10 if fmt == 1 else 5
-        ids, rows = [], []
-        while self.pos < len(self.data):
+        self._fits(count, 3 + width + 12 * n, field)
+        self.budget.take(field, 8 * (n + 1) * count)
+        ids, rows = np.zeros(count, np.int64), np.zeros((count, n))
+        k = 0
+        while self._left() > 0:
             line = self._line()
             if line.startswith(" -3"):
                 break
             if line.startswith(" -1"):
-                ids.append(self._int(line[3:3 + width], f"{field} node id"))
-                rows.append(self._floats(line, 3 + width, n, field))
-        return np.array(ids, np.int64), np.array(rows, float).reshape(-1, n)
+                if k == count:
+                    self.fail(field, f"{count} records as the block header declares", "more")
+                ids[k] = self._int(line[3:3 + width], f"{field} node id")
+                rows[k] = self._floats(line, 3 + width, n, field)
+                k += 1
+        if k != count:
+            self.fail(field, f"{count} records as the block header declares", f"{k} (truncated)")
+        return ids, rows
 
     def _element_type(self, etype: int) -> tuple[str, list[int]]:
         if etype not in ELEMENTS:
@@ -137,6 +161,8 @@ class _Frd:
 
     def _elements(self, header: str) -> None:
         count, fmt = self._header(header, "3C")
+        self._fits(count, 16 + 4 * 8, "3C")  # the smallest element record: binary, 8 nodes
+        self.budget.take("3C", ELEMENT_BYTES * count)
         for _ in range(count):
             if fmt >= 2:
                 _, etype, _, _ = struct.unpack("<4i", self._take(16))
@@ -166,19 +192,18 @@ class _Frd:
         fmt = self._int(header.split()[-1], "100C format")
         if not 0 <= count <= MAX_COUNT:
             self.fail("100C", f"a node count up to {MAX_COUNT}", str(count))
-        name = self._line().split()[1] if self.pos < len(self.data) else ""
+        words = self._line().split()
+        name = words[1] if len(words) > 1 else ""
         ncomp = 0
-        while self.pos < len(self.data) and self.data[self.pos:self.pos + 3] == b" -5":
+        while self._peek(3) == b" -5":
             ncomp += "ALL" not in self._line()
         if fmt >= 2:
             rec = np.frombuffer(self._take(count * (4 + 4 * ncomp)), np.dtype([("id", "<i4"), ("v", "<f4", ncomp)]))
             ids, values = rec["id"].astype(np.int64), rec["v"].astype(float)
             self.digits = min(self.digits, FLOAT32_DIGITS)
         else:
-            ids, values = self._ascii_records(fmt, ncomp, name)
+            ids, values = self._ascii_records(fmt, ncomp, name or "100C", count)
             self.digits = min(self.digits, ASCII_DIGITS)
-        if len(ids) != count:
-            self.fail(name or "100C", f"{count} node records as the block header declares", f"{len(ids)} (truncated)")
         if not np.all(np.isfinite(values)):
             self.fail(name or "100C", "finite values", "NaN or infinity")
         self.frequencies[self.mode] = frequency
@@ -204,13 +229,11 @@ def _dat_eigenvalues(path: Path) -> np.ndarray | None:
     """The eigenvalue column of the .dat table 'E I G E N V A L U E   O U T P U T', or None."""
     if not path.is_file():
         return None
-    lines = path.read_text(errors="replace").splitlines()
-    try:
-        start = next(i for i, l in enumerate(lines) if "E I G E N V A L U E   O U T P U T" in l)
-    except StopIteration:
+    lines = _text_lines(path)
+    if not any("E I G E N V A L U E   O U T P U T" in line for line in lines):
         return None
     values = []
-    for line in lines[start + 1:]:
+    for line in lines:
         parts = line.split()
         if values and not parts:
             break
@@ -219,13 +242,20 @@ def _dat_eigenvalues(path: Path) -> np.ndarray | None:
     return np.array(values)
 
 
+def _text_lines(path: Path):
+    """The lines of a text file, streamed; a longer line than LINE_MAX comes in pieces (memory stays bounded)."""
+    with open(path, "rb") as fh:
+        while line := fh.readline(LINE_MAX):
+            yield line.decode("latin-1").rstrip("\r\n")
+
+
 def _deck_card(path: Path, keyword: str) -> list[float] | None:
     """The numbers on the data line after the first ``keyword`` card of the deck, None when absent."""
-    lines = path.read_text(errors="replace").splitlines()
-    for i, line in enumerate(lines):
-        if line.strip().upper().startswith(keyword) and i + 1 < len(lines):
+    lines = _text_lines(path)
+    for line in lines:
+        if line.strip().upper().startswith(keyword):
             try:
-                return [float(x) for x in lines[i + 1].split(",") if x.strip()]
+                return [float(x) for x in next(lines, "").split(",") if x.strip()] or None
             except ValueError:
                 return None
     return None
@@ -253,6 +283,7 @@ def _deck_material(path: Path) -> Material | None:
 
 def _stored_matrix(frd: _Frd, path: Path, rows: np.ndarray, n3: int) -> sp.csr_array:
     """A symmetric matrix from CalculiX 'row col value' triplets (upper triangle, 1-based DOF numbers)."""
+    check_file_size(path, 2)  # text of 'i j value' lines holds more bytes than the three numbers parsed
     try:
         i, j, v = np.loadtxt(path, ndmin=2).T
         i, j = rows[i.astype(int) - 1], rows[j.astype(int) - 1]
@@ -267,6 +298,7 @@ def _stored_matrices(frd: _Frd, stem: Path, index: dict) -> tuple[sp.csr_array |
     mas, sti, dof = (stem.with_suffix(s) for s in (".mas", ".sti", ".dof"))
     if not (mas.is_file() and dof.is_file()):
         return None, None
+    check_file_size(dof, 16)
     try:
         rows = np.array([3 * index[int(n)] + int(c) - 1 for n, c in (l.split(".") for l in dof.read_text().split())])
     except (ValueError, KeyError) as e:

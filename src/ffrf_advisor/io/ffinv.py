@@ -21,7 +21,8 @@ from ..errors import BodyFileError
 from ..units import LENGTH, MASS, TIME, Units, UnitsError
 from . import Format, register
 from .atomic import atomic_path
-from .hdf5_guard import probe
+from . import guard
+from .limits import Budget, check_file_size, check_hdf5_references
 
 FORMAT_NAME = "ffrf_advisor.invariants"
 VERSION = 1
@@ -108,7 +109,11 @@ def _unique_keys(pairs: list) -> dict:
     return dict(pairs)
 
 
+JSON_FACTOR = 4  # bytes of parsed lists and arrays per byte of JSON text (floats of ~20 characters)
+
+
 def _load_json(path) -> dict:
+    check_file_size(path, JSON_FACTOR)
     try:
         with open(path, encoding="utf-8") as fh:
             doc = json.load(fh, parse_constant=lambda c: math.nan, object_pairs_hook=_unique_keys)
@@ -124,16 +129,16 @@ def _load_json(path) -> dict:
 def _load_h5(path) -> dict:
     def plain(v):
         return v.decode() if isinstance(v, bytes) else (v.item() if isinstance(v, np.generic) else v)
-    probe(path)
+    budget = Budget(path)
     try:
         with h5py.File(path, "r") as f:
+            check_hdf5_references(path, f)
             doc = {k: plain(v) for k, v in f.attrs.items()}
             for key, obj in f.items():
                 if isinstance(obj, h5py.Group):
                     doc[key] = {k: plain(v) for k, v in obj.attrs.items()}
-                elif obj.size > 10**8:
-                    raise BodyFileError(path, key, "an array of sensible size", f"{obj.size} entries")
                 else:
+                    budget.take(key, 2.0 * obj.size * max(obj.dtype.itemsize, 8))
                     doc[key] = obj[()]
     except (OSError, KeyError, ValueError, TypeError) as e:
         raise BodyFileError(path, "file", "a readable HDF5 invariants file", f"{type(e).__name__}: {e}") from None
@@ -297,7 +302,7 @@ def read_json(path, load_fe: bool = False) -> FlexibleBody:
 
 
 def read_h5(path, load_fe: bool = False) -> FlexibleBody:
-    return body_from_document(path, _load_h5(path))
+    return body_from_document(path, guard.run(path, "the HDF5 library", _load_h5, path))
 
 
 register(Format("ffinv-json", (".ffinv.json",), read_json, write_json))

@@ -21,7 +21,8 @@ from ..invariants import ShapeIntegrals, shape_integrals
 from ..units import Units, UnitsError
 from . import Format, register
 from .atomic import atomic_path
-from .hdf5_guard import probe
+from . import guard
+from .limits import Budget, check_hdf5_references
 
 FORMAT_NAME = "ffrf-body"
 VERSION = 2  # 2: optional /material, /static_centrifugal, /geometric_stiffness (docs/format.md)
@@ -116,7 +117,7 @@ class _Reader:
     """Validating access to one open file; every failure names the field."""
 
     def __init__(self, path, f: h5py.File):
-        self.path, self.f = path, f
+        self.path, self.f, self.budget = path, f, Budget(path)
 
     def fail(self, field: str, expected: str, got: str | None = None):
         raise BodyFileError(self.path, field, expected, got)
@@ -137,6 +138,7 @@ class _Reader:
         kind = ds.dtype.kind
         if kind not in ("iu" if integer else "fiu"):
             self.fail(name, "integers" if integer else "numbers", f"dtype {ds.dtype}")
+        self.budget.take(name, ds.size * 8.0)
         data = ds[()]
         data = data.astype(np.int64 if integer else float, copy=False)
         if not integer and not np.all(np.isfinite(data)):
@@ -254,19 +256,24 @@ def _phi(r: _Reader, n: int, nf: int) -> h5py.Dataset:
 
 
 def read(path: str | os.PathLike, load_fe: bool = False) -> FlexibleBody:
-    """Read a ``.ffrf.h5`` body. Nodal data are read only when needed or ``load_fe`` (and present)."""
-    probe(path)
+    """Read a ``.ffrf.h5`` body. Nodal data are read only when needed or ``load_fe`` (and present);
+    the reading runs in a guarded child (io.guard)."""
+    return guard.run(path, "the HDF5 library", _read_file, path, load_fe)
+
+
+def _read_file(path, load_fe: bool) -> FlexibleBody:
     try:
         f = h5py.File(path, "r")
     except OSError:
         raise BodyFileError(path, "file", "an HDF5 file", "unreadable or corrupt HDF5") from None
     with f:  # errors nobody foresaw become the one-line error in io.read_body
+        check_hdf5_references(path, f)
         return _read_open(_Reader(path, f), path, load_fe)
 
 
 def _read_open(r: _Reader, path, load_fe: bool) -> FlexibleBody:
     name, units = _header(r)
-    eigenvalues = r.array("modes/eigenvalues", (None,))
+    eigenvalues = r.array("modes/eigenvalues", (_mode_count(r),))
     nf = len(eigenvalues)
     sigma = r.array("stress/max", (nf,)) if "stress/max" in r.f else None
     if sigma is not None and np.any(sigma < 0):
@@ -284,6 +291,16 @@ def _read_open(r: _Reader, path, load_fe: bool) -> FlexibleBody:
     return FlexibleBody(name=name, integrals=integrals, eigenvalues=eigenvalues, units=units,
                         sigma_max=sigma, provenance=_provenance(r, path), fe=fe,
                         static_centrifugal=_static_centrifugal(r), geometric=_geometric(r, nf))
+
+
+def _mode_count(r: _Reader) -> int:
+    """nf as the eigenvalues declare it, checked against every other per-mode dataset before any is read."""
+    nf = r.node("modes/eigenvalues").shape[0] if r.node("modes/eigenvalues").ndim == 1 else None
+    for name, axis in (("stress/max", 0), ("modes/Phi", 2), ("invariants/mode_sum", 1)):
+        ds = r.f.get(name)
+        if isinstance(ds, h5py.Dataset) and nf is not None and ds.ndim > axis and ds.shape[axis] != nf:
+            r.fail("modes/eigenvalues", f"as many modes as {name} has ({ds.shape[axis]})", str(nf))
+    return nf
 
 
 def _geometric(r: _Reader, nf: int) -> np.ndarray | None:
@@ -322,6 +339,9 @@ def _material(r: _Reader) -> Material | None:
 def _read_fe(r: _Reader, nf: int, material: Material | None) -> ModalFE:
     mesh = _mesh(r)
     n = mesh.n_nodes
+    if nf > 3 * n:
+        r.fail("modes/eigenvalues", f"at most 3n = {3 * n} modes for the {n} nodes of the mesh", str(nf))
+    r.budget.take("modes/eigenvalues", 12.0 * 8 * nf * nf)  # the invariants Sbar and spin computed from them
     Ms = _mass(r, n)
     _phi(r, n, nf)
     Phi = r.array("modes/Phi", (n, 3, nf))

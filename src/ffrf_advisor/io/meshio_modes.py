@@ -24,7 +24,8 @@ from ..fe.build import fe_body, mass_normalised_file_modes, with_centrifugal_res
 from ..fe.elements import ELEMENT_TYPES
 from ..fe.material import Material
 from ..fe.mesh import Mesh
-from . import Format, register
+from . import Format, guard, register
+from .limits import check_file_size, check_reference
 
 SUFFIXES = (".vtu", ".vtk", ".xdmf", ".xmf", ".med", ".msh")
 LOWER_DIMENSIONAL = re.compile(r"^(vertex|line\d*|triangle\d*|quad\d*|polygon)$")
@@ -79,14 +80,7 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
     """A modal body from a meshio mesh with mode fields (t-mm-N-s); with ``young`` and ``poisson`` the body
     carries its material, static centrifugal response and geometric stiffness (theory 9, 11)."""
     material = _material(path, young, poisson)
-    import meshio
-
-    try:
-        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-            m = meshio.read(path)  # meshio prints its complaints; ours is the one line
-    except (Exception, SystemExit) as e:  # meshio raises many kinds on bad input, even SystemExit
-        got = "not parseable as its suffix's format" if isinstance(e, SystemExit) else f"{type(e).__name__}: {e}"
-        raise BodyFileError(path, "file", "a mesh meshio can read", got[:200]) from None
+    m = guard.run(path, "meshio", _meshio_read, path)
     mesh = _solid_mesh(path, m)
     numbers, Phi = _modes(path, m, mesh.n_nodes)
     nf = len(numbers)
@@ -109,6 +103,40 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
     body = fe_body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi_n, lam, provenance, stress=stress,
                    material=material)
     return body if material is None else with_centrifugal_response(body)
+
+
+PARSE_FACTOR = 8  # bytes meshio holds per byte of file while parsing (XML trees, base64, decompressed data)
+XINCLUDE = "{http://www.w3.org/2001/XInclude}include"
+
+
+def _meshio_read(path):
+    """meshio's mesh (run in the guarded child, io.guard), after the size and reference checks."""
+    check_file_size(path, PARSE_FACTOR)
+    if str(path).lower().endswith((".xdmf", ".xmf")):
+        _check_xdmf_references(path)
+    import meshio
+
+    try:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            return meshio.read(path)  # meshio prints its complaints; ours is the one line
+    except (Exception, SystemExit) as e:  # meshio raises many kinds on bad input, even SystemExit
+        got = "not parseable as its suffix's format" if isinstance(e, SystemExit) else f"{type(e).__name__}: {e}"
+        raise BodyFileError(path, "file", "a mesh meshio can read", got[:200]) from None
+
+
+def _check_xdmf_references(path) -> None:
+    """Heavy data (HDF5 or binary DataItems) and XIncludes of an XDMF file: files in its folder only."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError) as e:
+        raise BodyFileError(path, "file", "an XDMF (XML) file", str(e)[:100]) from None
+    for item in root.iter():
+        if item.tag == XINCLUDE:
+            check_reference(path, "xi:include@href", item.get("href", ""))
+        elif item.tag == "DataItem" and item.get("Format", "XML").upper() in ("HDF", "BINARY"):
+            check_reference(path, "DataItem", (item.text or "").strip().split(":")[0])
 
 
 def _material(path, young: float | None, poisson: float | None) -> Material | None:

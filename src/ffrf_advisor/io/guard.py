@@ -1,0 +1,144 @@
+"""Run a parser in a forked child: crashes, hangs and huge allocations of a library end as one line.
+
+The HDF5 C library can crash (segfault) or loop forever on files with
+damaged metadata, and meshio allocates what a file declares; none of this
+can be caught in Python. ``run`` forks a child that parses the file and
+sends the result (or the exception it raised) back through a pipe, so the
+file is read once. The child is bounded on its own: it dies with its
+parent (PR_SET_PDEATHSIG), by an alarm at the deadline, and its address
+space is limited to what it had plus the memory limit (``limits``). The
+parent kills and reaps it on every path out (error, Ctrl-C, SIGTERM).
+"""
+from __future__ import annotations
+
+import ctypes
+import faulthandler
+import os
+import pickle
+import resource
+import select
+import signal
+import time
+
+from ..errors import BodyFileError
+from .limits import human, max_bytes
+
+BASE_SECONDS = 30.0  # a valid file reads in well under this ...
+SECONDS_PER_BYTE = 1 / (2 * 2**20)  # ... plus 1 s per 2 MiB (meshio parses text at tens of MiB/s)
+SLACK = 512 * 2**20  # address space for pickling the result and the libraries' own buffers
+FORK = hasattr(os, "fork")  # tests that spy on the parser in-process set this False
+PR_SET_PDEATHSIG = 1
+
+
+def deadline_seconds(path) -> float:
+    return BASE_SECONDS + os.path.getsize(path) * SECONDS_PER_BYTE
+
+
+def run(path, what: str, fn, *args):
+    """``fn(*args)`` parsed in a child; its result, or its exception re-raised here.
+
+    ``what`` names the library for the messages ("the HDF5 library", "meshio").
+    """
+    if not FORK:
+        return fn(*args)
+    seconds, limit = deadline_seconds(path), max_bytes()  # a bad limit is the parent's one-line error
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # child: never returns into the caller's code
+        os.close(read_end)
+        _child(write_end, seconds, limit, fn, args)
+    os.close(write_end)
+    status = None
+    try:
+        data = _collect(read_end, time.monotonic() + seconds)
+        if data is not None:
+            status, pid = os.waitpid(pid, 0)[1], 0
+    finally:
+        os.close(read_end)
+        if pid:
+            _kill(pid)
+    if not data:
+        raise BodyFileError(path, "file", f"a file {what} can read", f"{what} {_failure(path, seconds, status)}")
+    ok, value = pickle.loads(data)
+    if ok:
+        return value
+    raise value
+
+
+def _child(fd: int, seconds: float, limit: int, fn, args) -> None:
+    code = 0
+    try:
+        _bound_self(seconds, limit)
+        try:
+            message = (True, fn(*args))
+        except MemoryError:
+            message = (False, MemoryError(f"needed more than the memory limit of {human(limit)}"))
+        except BaseException as e:  # noqa: BLE001 - the parent re-raises it
+            message = (False, e)
+        try:
+            data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+        except Exception as e:  # noqa: BLE001 - an exception that does not pickle travels as its text
+            data = pickle.dumps((False, RuntimeError(f"{type(message[1]).__name__}: {e}")))
+        view = memoryview(data)
+        while view:
+            view = view[os.write(fd, view):]
+    except BaseException:  # noqa: BLE001 - nothing may return into the parent's code
+        code = 1
+    os._exit(code)
+
+
+def _bound_self(seconds: float, limit: int) -> None:
+    """Die with the parent, at the deadline, and before allocating more than the memory limit."""
+    faulthandler.disable()  # a crash is reported by the parent, in one line
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):  # not Linux: the parent's deadline still holds
+        pass
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGALRM):
+        signal.signal(sig, signal.SIG_DFL)
+    signal.alarm(int(seconds) + 2)
+    size = _address_space()
+    if size:
+        soft, hard = size + limit + SLACK, resource.getrlimit(resource.RLIMIT_AS)[1]
+        resource.setrlimit(resource.RLIMIT_AS, (soft if hard == resource.RLIM_INFINITY else min(soft, hard), hard))
+
+
+def _address_space() -> int:
+    try:
+        with open("/proc/self/statm") as fh:
+            return int(fh.read().split()[0]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
+
+
+def _collect(fd: int, deadline: float) -> bytes | None:
+    """Everything the child writes until it closes the pipe; None past the deadline."""
+    chunks = []
+    while True:
+        left = deadline - time.monotonic()
+        if left <= 0 or not select.select([fd], [], [], left)[0]:
+            return None
+        chunk = os.read(fd, 1 << 20)
+        if not chunk:
+            return b"".join(chunks)
+        chunks.append(chunk)
+
+
+def _kill(pid: int) -> None:
+    try:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+    except (ProcessLookupError, ChildProcessError):
+        pass
+
+
+def _failure(path, seconds: float, status: int | None) -> str:
+    """What happened to a child that sent no result, in words."""
+    if status is None or (os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGALRM):
+        return (f"did not finish within {seconds:.0f} s (a valid file of {human(os.path.getsize(path))} reads in "
+                "seconds; damaged metadata can make it loop)")
+    if os.WIFSIGNALED(status):
+        sig = os.WTERMSIG(status)
+        name = signal.Signals(sig).name if sig in signal.Signals._value2member_map_ else "unknown"
+        return f"crashed reading it (signal {sig}, {name})"
+    return f"stopped without a result (exit status {os.WEXITSTATUS(status)})"

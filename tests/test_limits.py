@@ -1,0 +1,188 @@
+"""Bounded resources (issue 14): declared sizes, the memory limit, references to other files, the guarded child."""
+from __future__ import annotations
+
+import json
+import os
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from ffrf_advisor.cli import app
+from ffrf_advisor.errors import BodyFileError
+from ffrf_advisor.io import guard, limits
+
+ROOT = Path(__file__).resolve().parents[1]
+BEAM = ROOT / "sample_bodies" / "beam.ffrf.h5"
+runner = CliRunner()
+
+
+def _one_line_exit_2(args, *needles):
+    result = runner.invoke(app, [str(a) for a in args])
+    assert result.exit_code == 2, result.output
+    line = result.output.strip()
+    assert "\n" not in line and "Traceback" not in line
+    for needle in needles:
+        assert needle in line, line
+    return line
+
+
+def _edited_beam(tmp_path, name, edit) -> Path:
+    path = tmp_path / name
+    shutil.copy(BEAM, path)
+    with h5py.File(path, "r+") as f:
+        edit(f)
+    return path
+
+
+def _declare(f, name, shape):
+    """Replace dataset ``name`` by one of ``shape`` that is declared but never written (a tiny file)."""
+    dtype = f[name].dtype
+    del f[name]
+    f.create_dataset(name, shape=shape, dtype=dtype)
+
+
+def test_a_declared_huge_dataset_is_refused_before_it_is_read(tmp_path):
+    points = _edited_beam(tmp_path, "points.ffrf.h5", lambda f: _declare(f, "mesh/points", (10**9, 3)))
+    _one_line_exit_2(["analyze", points, "--speed", "300rad/s", "--connection", "stiff"], "mesh/points",
+                     "memory limit of 8 GiB", "22.4 GiB declared")
+    modes = _edited_beam(tmp_path, "modes.ffrf.h5", lambda f: _declare(f, "modes/eigenvalues", (10**9,)))
+    _one_line_exit_2(["info", modes], "modes/eigenvalues", "as many modes as stress/max has (16)")
+
+
+def test_the_memory_limit_is_settable_and_bounds_every_format(tmp_path, monkeypatch):
+    # without cached invariants the beam's nodal data are read: 773 nodes, 16 modes (0.8 MiB in all) pass
+    # the default 8 GiB and fail 256 KiB
+    nodal = _edited_beam(tmp_path, "nodal.ffrf.h5", lambda f: f.__delitem__("invariants"))
+    assert runner.invoke(app, ["info", str(nodal)]).exit_code == 0
+    _one_line_exit_2(["--max-memory", "256K", "info", nodal], "memory limit of 256 KiB")
+    monkeypatch.setenv(limits.ENV, "256K")
+    _one_line_exit_2(["info", nodal], "memory limit of 256 KiB")
+    monkeypatch.delenv(limits.ENV)
+    _one_line_exit_2(["--max-memory", "lots", "info", BEAM], "--max-memory", "like 8G")
+    monkeypatch.setenv(limits.ENV, "lots")
+    _one_line_exit_2(["info", BEAM], limits.ENV, "like 8G")
+
+
+@pytest.mark.parametrize("name", ["big.ffinv.json", "big.frd", "big.vtu"])
+def test_a_sparse_3_gb_file_ends_in_one_line_without_reading_it(tmp_path, name):
+    path = tmp_path / name
+    with open(path, "wb") as fh:
+        fh.truncate(3 * 2**30)  # a hole: no disk, 3 GiB of zeros to whoever reads it
+    (tmp_path / "big.inp").write_text("*DENSITY\n7.85e-9\n")
+    code = ("import resource, sys; from ffrf_advisor.cli import app; sys.argv = ['ffrf-advisor', 'info', "
+            f"{str(path)!r}, '--density', '1', '--eigenvalues', '1']; "
+            "sys.argv = sys.argv[:3] if not sys.argv[2].endswith('.vtu') else sys.argv\n"
+            "try:\n    app()\nexcept SystemExit as e:\n"
+            "    print(e.code, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, "
+            "resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    code_, rss, child_rss = done.stdout.split()
+    assert code_ == "2" and len(done.stderr.strip().splitlines()) == 1, done.stderr
+    assert max(int(rss), int(child_rss)) < 600 * 1024, "kB: memory must not follow the file size"
+
+
+def test_an_frd_declaring_more_nodes_than_it_holds_is_truncated(tmp_path):
+    path = tmp_path / "t.frd"
+    path.write_text("    1C\n    2C                  99999999                                     1\n"
+                    " -1         1 0.00000E+00 0.00000E+00 0.00000E+00\n -3\n")
+    _one_line_exit_2(["info", path], "2C", "records the rest of the file can hold", "99999999 declared")
+
+
+def _external(tmp_path, name, target):
+    return _edited_beam(tmp_path, name, lambda f: (f.__delitem__("stress/max"),
+                                                   f.__setitem__("stress/max", h5py.ExternalLink(target, "/x"))))
+
+
+def test_external_links_outside_the_folder_or_to_special_files_are_refused(tmp_path):
+    _one_line_exit_2(["info", _external(tmp_path, "out.ffrf.h5", "/etc/passwd")],
+                     "stress/max", "files in the body file's folder", "--follow-outside")
+    os.mkfifo(tmp_path / "fifo.h5")
+    start = time.monotonic()
+    _one_line_exit_2(["info", _external(tmp_path, "fifo.ffrf.h5", "fifo.h5")], "existing regular file", "fifo.h5")
+    assert time.monotonic() - start < 20  # refused, not opened (opening a FIFO blocks forever)
+    # asked: the link is followed (and what it finds is checked like any other data)
+    _one_line_exit_2(["--follow-outside", "info", _external(tmp_path, "asked.ffrf.h5", "/etc/passwd")],
+                     "readable ffrf-h5 file")
+    ffinv = tmp_path / "out.ffinv.h5"
+    with h5py.File(ffinv, "w") as f:
+        f["I1"] = h5py.ExternalLink("/etc/passwd", "/x")
+    _one_line_exit_2(["info", ffinv], "I1", "files in the body file's folder")
+
+
+def test_xdmf_heavy_data_outside_the_folder_is_refused(tmp_path):
+    path = tmp_path / "m.xdmf"
+    path.write_text(textwrap.dedent("""\
+        <Xdmf Version="3.0"><Domain><Grid Name="g"><Geometry GeometryType="XYZ">
+        <DataItem Dimensions="1 3" Format="HDF" NumberType="Float" Precision="8">/etc/passwd:/points</DataItem>
+        </Geometry></Grid></Domain></Xdmf>"""))
+    _one_line_exit_2(["info", path, "--density", "1", "--eigenvalues", "1"], "DataItem", "folder", "/etc/passwd")
+
+
+# ---------------------------------------------------------------- the guarded child
+def test_the_guard_words_a_hang_a_crash_and_a_memory_overrun_by_what_happened(tmp_path, monkeypatch):
+    path = tmp_path / "x.h5"
+    path.write_bytes(b"0" * 100)
+    monkeypatch.setattr(guard, "BASE_SECONDS", 1.0)
+    with pytest.raises(BodyFileError, match=r"did not finish within 1 s \(a valid file of 100 B reads in seconds"):
+        guard.run(path, "lib", time.sleep, 30)
+    with pytest.raises(BodyFileError, match=r"lib crashed reading it \(signal 11, SIGSEGV\)"):
+        guard.run(path, "lib", _segfault)
+    monkeypatch.setattr(limits, "_set", 64 * 2**20)
+    with pytest.raises(MemoryError, match="memory limit of 64 MiB"):
+        guard.run(path, "lib", np.ones, 2**30)
+    assert guard.run(path, "lib", np.arange, 3).tolist() == [0, 1, 2]  # the result travels back
+
+
+def _segfault():
+    os.kill(os.getpid(), signal.SIGSEGV)
+
+
+PARENT = """
+import os, sys, time
+from ffrf_advisor.io import guard
+def child():
+    open(sys.argv[1], "w").write(str(os.getpid()))
+    time.sleep(600)
+guard.run(sys.argv[1], "lib", child)
+"""
+
+
+@pytest.mark.parametrize("how", [signal.SIGINT, signal.SIGTERM, signal.SIGKILL])
+def test_the_reading_child_never_outlives_its_parent(tmp_path, how):
+    pidfile = tmp_path / "pid"
+    pidfile.write_text("")
+    parent = subprocess.Popen([sys.executable, "-c", PARENT, str(pidfile)], stderr=subprocess.DEVNULL)
+    for _ in range(500):
+        if pidfile.read_text():
+            break
+        time.sleep(0.02)
+    child = int(pidfile.read_text())
+    parent.send_signal(how)
+    parent.wait(timeout=30)
+    for _ in range(250):
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            return
+        if Path(f"/proc/{child}/stat").read_text().split()[2] == "Z":  # a zombie waiting for init: dead
+            return
+        time.sleep(0.02)
+    os.kill(child, signal.SIGKILL)
+    pytest.fail(f"the child {child} outlived its parent ({how.name})")
+
+
+def test_a_broken_dataset_in_a_large_valid_file_is_read_only_when_needed(tmp_path):
+    # the default read does not touch nodal data: a damaged mode matrix does not stop `info`
+    path = _edited_beam(tmp_path, "phi.ffrf.h5", lambda f: _declare(f, "modes/Phi", f["modes/Phi"].shape))
+    result = runner.invoke(app, ["info", str(path), "--json"])
+    assert result.exit_code == 0 and json.loads(result.stdout)["body"]["name"] == "beam"

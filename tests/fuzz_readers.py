@@ -1,7 +1,12 @@
-"""Mutation fuzzing of one reader, run in a child process with a memory limit (see tests/test_fuzz.py).
+"""Mutation fuzzing of one reader and the analysis after it, in a child process with a memory limit
+(see tests/test_fuzz.py).
 
 python tests/fuzz_readers.py SEED_FILE CASES RNG_SEED [KEY=VALUE reader options as JSON]
-prints one JSON line: counts of outcomes and the first offending cases.
+prints one JSON line: counts of outcomes and the first offending cases. Byte damage (truncation, bit
+flips, random spans, hostile numbers) is mixed with structural damage of HDF5 files (huge declared
+shapes, external and soft links, long strings) and long strings in JSON. A case passes when the body
+is read and analysed, or when either ends in the project's one-line error; a timeout, a traceback or
+a multi-line message fails it.
 """
 from __future__ import annotations
 
@@ -16,11 +21,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.errors import FFRFError
-from ffrf_advisor.io import read_body
+from ffrf_advisor.guidelines import Situation
+from ffrf_advisor.io import limits, read_body
 
 MEMORY_LIMIT = 3 * 2**30  # bytes of address space: a huge allocation fails loudly
+READ_LIMIT = 512 * 2**20  # the tool's own memory limit (--max-memory) inside that
 CASE_SECONDS = 60
+LONG = 100_000  # characters of a long string
+ANALYSIS = Options(situation=Situation(w_op=300.0, connection="free"))
 NUMBER = re.compile(rb"-?\d+(\.\d+)?([eE][-+]?\d+)?")
 HOSTILE = [b"1e308", b"-1", b"0", b"nan", b"99999999999", b"2147483647", b"-0.0", b"1e-320", b"3"]
 
@@ -50,17 +60,60 @@ def mutate(data: bytes, rng: np.random.Generator) -> bytes:
     return data[: m.start()] + HOSTILE[rng.integers(len(HOSTILE))] + data[m.end():]
 
 
+def mutate_structure(path: Path, rng: np.random.Generator) -> None:
+    """Structural damage a byte mutation rarely makes: huge declared shapes, links, long strings."""
+    import h5py
+
+    with h5py.File(path, "r+") as f:
+        names = []
+        f.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
+        name = names[rng.integers(len(names))]
+        kind = rng.integers(4)
+        if kind == 0:
+            shape, dtype = f[name].shape, f[name].dtype
+            del f[name]
+            f.create_dataset(name, shape=tuple(10**int(rng.integers(6, 10)) if i == 0 else d
+                                               for i, d in enumerate(shape or (1,))), dtype=dtype)
+        elif kind == 1:
+            del f[name]
+            f[name] = h5py.ExternalLink(["/etc/passwd", "/dev/zero", "missing.h5", path.name][rng.integers(4)], "/x")
+        elif kind == 2:
+            del f[name]
+            f[name] = h5py.SoftLink("/" + name)  # a link to itself
+        else:
+            f.attrs["name"] = "\x1b[2J" + "x" * LONG
+
+
+def mutate_json(data: bytes) -> bytes:
+    """A long string where the body's name is."""
+    return data.replace(b'"name": "', b'"name": "' + b"\\u001b[31m" + b"y" * LONG, 1)
+
+
+class CaseTimeout(BaseException):
+    """A case over its time: not an OSError (TimeoutError is one, and readers turn those into one line)."""
+
+
 def _timeout(*_):
-    raise TimeoutError("case took too long")
+    raise CaseTimeout("case took too long")
+
+
+def damage(seed: Path, data: bytes, target: Path, rng: np.random.Generator) -> None:
+    """One damaged file at ``target``: byte damage in 3 of 4 cases, else structural."""
+    if rng.random() < 0.75:
+        target.write_bytes(mutate(data, rng))
+    elif seed.suffix == ".h5":
+        target.write_bytes(data)
+        mutate_structure(target, rng)
+    else:
+        target.write_bytes(mutate_json(data) if seed.suffix == ".json" else mutate(data, rng))
 
 
 def main(seed_file: str, cases: int, rng_seed: int, options: dict) -> dict:
-    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
     signal.signal(signal.SIGALRM, _timeout)
     seed = Path(seed_file)
     data = seed.read_bytes()
     rng = np.random.default_rng(rng_seed)
-    counts = {"read": 0, "ffrf_error": 0, "other": 0}
+    counts = {"analysed": 0, "ffrf_error": 0, "other": 0}
     offending = []
     with tempfile.TemporaryDirectory() as d:
         target = Path(d) / seed.name  # same name: the suffix picks the reader
@@ -68,11 +121,11 @@ def main(seed_file: str, cases: int, rng_seed: int, options: dict) -> dict:
             if sibling.stem == seed.stem and sibling != seed and sibling.is_file():
                 (Path(d) / sibling.name).write_bytes(sibling.read_bytes())
         for case in range(cases):
-            target.write_bytes(mutate(data, rng))
+            damage(seed, data, target, rng)
             signal.alarm(CASE_SECONDS)
             try:
-                read_body(target, **options)
-                counts["read"] += 1
+                analyze(read_body(target, **options), ANALYSIS)
+                counts["analysed"] += 1
             except FFRFError as e:
                 counts["ffrf_error"] += 1
                 if "\n" in str(e):
@@ -89,5 +142,7 @@ def main(seed_file: str, cases: int, rng_seed: int, options: dict) -> dict:
 
 
 if __name__ == "__main__":
+    resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
+    limits.set_max_bytes(READ_LIMIT)
     opts = json.loads(sys.argv[4]) if len(sys.argv) > 4 else {}
     print(json.dumps(main(sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), opts)))

@@ -85,3 +85,11 @@ def test_names_and_notes_from_a_file_are_sanitised_and_cut(tmp_path):
         assert "[bold]evil" in result.stdout  # shown literally, not as markup
         assert len(result.stdout) < 60_000
     assert "more notes" in runner.invoke(app, ["info", str(path)]).stdout
+
+
+def test_formats_are_aligned_and_info_reads_the_com_against_its_round_off():
+    lines = runner.invoke(app, ["formats"]).stdout.splitlines()
+    assert len({line.index(" read") for line in lines}) == 1, lines  # one column, whatever the suffixes
+    info = runner.invoke(app, ["info", str(SAMPLE)]).stdout
+    com = next(line for line in info.splitlines() if "|CoM| / size" in line)
+    assert "round-off" in com and float(com.split("= ")[1].split()[0]) < 1e-12

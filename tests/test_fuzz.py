@@ -5,9 +5,11 @@ import json
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import meshio
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -18,7 +20,8 @@ from ffrf_advisor.fe.mesh import box_mesh
 from ffrf_advisor.io import write_body
 from ffrf_advisor.io.calculix import write_deck
 
-from .fuzz_readers import mutate
+from . import fuzz_readers
+from .fuzz_readers import damage
 
 CASES = 2000  # per reader
 HARNESS = Path(__file__).resolve().parent / "fuzz_readers.py"
@@ -66,7 +69,7 @@ def test_reader_survives_thousands_of_damaged_files(seeds, name):
 
 
 def test_damaged_files_through_the_cli_give_one_line_and_exit_2(seeds, tmp_path):
-    import numpy as np
+    """Byte and structural damage (huge shapes, links, long strings), read and analysed through the CLI."""
     d, _ = seeds
     rng = np.random.default_rng(7)
     runner = CliRunner()
@@ -75,8 +78,18 @@ def test_damaged_files_through_the_cli_give_one_line_and_exit_2(seeds, tmp_path)
         data = (d / name).read_bytes()
         for _ in range(15):
             path = tmp_path / name
-            path.write_bytes(mutate(data, rng))
-            result = runner.invoke(app, ["info", str(path), *extra])
+            damage(d / name, data, path, rng)
+            result = runner.invoke(app, ["analyze", str(path), "--speed", "300rad/s", *extra])
             assert result.exit_code in (0, 2), result.output
             if result.exit_code == 2:
                 assert len(result.output.strip().splitlines()) == 1 and "Traceback" not in result.output
+
+
+def test_the_harness_counts_a_timeout_and_an_analysis_error_as_failures(seeds, monkeypatch):
+    d, _ = seeds
+    monkeypatch.setattr(fuzz_readers, "CASE_SECONDS", 1)
+    monkeypatch.setattr(fuzz_readers, "read_body", lambda *a, **k: time.sleep(3))
+    assert fuzz_readers.main(str(d / "seed.ffinv.json"), 2, 0, {})["counts"]["other"] == 2
+    monkeypatch.setattr(fuzz_readers, "read_body", lambda *a, **k: None)  # the analysis fails on it
+    report = fuzz_readers.main(str(d / "seed.ffinv.json"), 2, 0, {})
+    assert report["counts"]["other"] == 2 and "AttributeError" in report["offending"][0]["error"]

@@ -381,8 +381,10 @@ def schema_command(command: str = typer.Argument(..., help=f"One of: {', '.join(
 @app.command("formats")
 def list_formats():
     """The body file formats: name, suffixes, read/write."""
-    for f in formats():
-        out.print(f"{f.name:12s} {' '.join(f.suffixes):28s} read" + (", write" if f.write else ""))
+    rows = [(f.name, " ".join(f.suffixes), "read" + (", write" if f.write else "")) for f in formats()]
+    widths = [max(len(r[i]) for r in rows) for i in range(2)]
+    for name, suffixes, access in rows:
+        out.print(f"{name:{widths[0]}s}  {suffixes:{widths[1]}s}  {access}", markup=False)
 
 
 @app.command()

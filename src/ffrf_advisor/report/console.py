@@ -53,6 +53,10 @@ def body_summary(console: Console, body: FlexibleBody, checks: list[Check]) -> N
         console.print(f"  ... {len(notes) - SHOWN_NOTES} more notes")
     console.print(f"mass      {body.mass:.6e} {u.mass}")
     console.print(f"CoM       [{', '.join(f'{x:.4e}' for x in body.com)}] {u.length}")
+    offset = next((c for c in checks if c.name == "com_offset"), None)
+    if offset is not None and offset.passed:
+        console.print(f"          at the frame origin to round-off: |CoM| / size = {offset.value:.1e} "
+                      f"<= {offset.tolerance:.0e}")
     console.print(f"I0 {_unit(f'{u.mass} {u.length}^2')}\n{_matrix(body.I0)}")
     modes = Table(title=f"{body.nf} flexible modes")
     modes.add_column("mode", justify="right")

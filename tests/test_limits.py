@@ -186,3 +186,10 @@ def test_a_broken_dataset_in_a_large_valid_file_is_read_only_when_needed(tmp_pat
     path = _edited_beam(tmp_path, "phi.ffrf.h5", lambda f: _declare(f, "modes/Phi", f["modes/Phi"].shape))
     result = runner.invoke(app, ["info", str(path), "--json"])
     assert result.exit_code == 0 and json.loads(result.stdout)["body"]["name"] == "beam"
+
+
+def test_numbers_whose_products_overflow_are_refused_on_reading(tmp_path):
+    # finite in the file, NaN once multiplied (I0 = I - ... + m c c^T): one line at reading, not a LinAlgError
+    path = _edited_beam(tmp_path, "big.ffrf.h5", lambda f: f["invariants/first_moment"].write_direct(
+        np.array([1e200, 0.0, 0.0])))
+    _one_line_exit_2(["analyze", path, "--speed", "300rad/s"], "invariants first_moment", "below 1e+150")

@@ -75,7 +75,30 @@ def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> Fle
     except UNFORESEEN as e:
         raise BodyFileError(path, "file", f"a readable {f.name} file",
                             f"{type(e).__name__}: {str(e)[:160]}") from None
-    return flexible_modes_in_order(body, path)
+    return flexible_modes_in_order(in_range(body, path), path)
+
+
+LARGEST = 1e150  # |value| above which products of two numbers (inertia, energies) overflow
+
+
+def in_range(body: FlexibleBody, path) -> FlexibleBody:
+    """Every number of the body finite and below LARGEST in magnitude, I0 too: the analysis multiplies
+    them (theory sections 3, 7), so 1e300 in a file would turn into NaN far from the file."""
+    J = body.integrals
+    fields = {"invariants mass": J.mass, "invariants first_moment": J.first_moment, "invariants I": J.I,
+              "invariants Ibar": J.Ibar, "invariants Sbar": J.Sbar, "invariants mode_sum": J.mode_sum,
+              "invariants spin": J.spin, "eigenvalues": body.eigenvalues, "stress max": body.sigma_max,
+              "geometric stiffness": body.geometric}
+    if body.static_centrifugal is not None:
+        fields.update({"static_centrifugal compliance": body.static_centrifugal.compliance,
+                       "static_centrifugal sigma": body.static_centrifugal.sigma})
+    for name, value in fields.items():
+        if value is not None and not np.all(np.abs(value) < LARGEST):
+            raise BodyFileError(path, name, f"finite numbers below {LARGEST:.0e} in magnitude")
+    if not np.all(np.abs(body.I0) < LARGEST):
+        raise BodyFileError(path, "invariants I", "an inertia tensor I0 about the CoM that is finite",
+                            "overflow (from the first moment and I)")
+    return body
 
 
 def flexible_modes_in_order(body: FlexibleBody, path) -> FlexibleBody:

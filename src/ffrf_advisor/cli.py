@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import functools
 import json
+import tempfile
 import time
 from pathlib import Path
 from typing import Annotated, Optional
@@ -302,6 +303,62 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed:
         for body in data["bodies"]:
             for w in body["warnings"]:
                 out.print(f"{body['name']}: warning: {w}", highlight=False)
+
+
+@app.command()
+@handles_errors
+def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several give the comparison first."),
+           output: Path = typer.Option(..., "--output", "-o", help="Report file: .html (self-contained) or .pdf."),
+           verify: bool = typer.Option(False, "--verify", help="Verify each advice by simulation (about a "
+                                                               "minute per small body) and include it."),
+           verification: Optional[list[Path]] = typer.Option(
+               None, "--verification", help="Include a verification already run: the JSON of `verify --json -o "
+                                            "DIR` (its figures are read from DIR), one per body in order."),
+           force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT."),
+           speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
+           sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
+           n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
+           eigenvalues: Eigenvalues = None, density: Density = None):
+    """HTML or PDF report: verdict, evidence, the paper's figures and tables, pictures, Campbell, verification."""
+    from .report import document
+    from .report.write import check_target, write
+    check_target(output, bodies)
+    if output.exists() and not force:
+        raise FFRFError(f"{output}: exists; refusing to overwrite (use --force)")
+    if verification and len(verification) != len(bodies):
+        raise FFRFError(f"--verification: expected one file per body ({len(bodies)}), got {len(verification)}")
+    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
+                            n_ratio, threshold, config, spin_axis)
+    analyses = [run_analysis(_read(b, eigenvalues, density), options) for b in bodies]
+    with tempfile.TemporaryDirectory(prefix="ffrf-report-") as scratch:  # figures of --verify, until written
+        studies = [_verification(a, b, Path(scratch) / str(i) if verify else None,
+                                 verification[i] if verification else None)
+                   for i, (a, b) in enumerate(zip(analyses, bodies))]
+        doc = (document.single(analyses[0], str(bodies[0]), studies[0]) if len(bodies) == 1
+               else document.collection(analyses, [str(b) for b in bodies], studies))
+        write(doc, output, force)
+    err.print(f"wrote {output} ({output.stat().st_size / 1024:.0f} KiB)", markup=False, highlight=False)
+
+
+def _verification(analysis, body: Path, folder: Optional[Path], given: Optional[Path]) -> Optional[dict]:
+    """A verification for the report: read from a file, run now (figures into ``folder``), or none."""
+    if given is not None:
+        try:
+            data = json.loads(given.read_text(encoding="utf-8"))
+            if not isinstance(data, dict) or data.get("schema_version") != 2 or "verdict" not in data:
+                raise ValueError("not the JSON of `verify --json` (schema_version 2)")
+        except (OSError, ValueError) as e:
+            raise FFRFError(f"{given}: --verification: expected the JSON of `verify --json`, got {e}") from None
+        return data
+    if folder is None:
+        return None
+    from .report.verify_json import study_json
+    from .verify.scenes import SceneOptions
+    from .verify.study import run_study
+    folder.mkdir()
+    err.print(f"verifying {body} by simulation ...", markup=False, highlight=False)
+    study = run_study(analysis, list(SCENES), 0.01, "dop853", None, 1e-8, 3, folder, SceneOptions(), "response")
+    return study_json(study, str(body))
 
 
 @app.command()

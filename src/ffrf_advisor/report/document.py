@@ -1,0 +1,206 @@
+"""What a report says, once, for both renderers (report.html, report.pdf): sections of blocks.
+
+A block is one of
+  ("fields", [(name, value), ...])        name-value lines
+  ("table", (header, rows))               rows of strings
+  ("items", [text, ...])                  a list (warnings, notes)
+  ("figure", (title, Figure | Path))      a matplotlib figure, or a PNG file of a verification
+Every number carries its unit; every string from a body file is plain text here (the renderers escape).
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..analysis import Analysis
+from ..solver_settings import adams_settings
+from . import paper_figures as pf
+from .json_out import analysis_json
+
+
+@dataclass
+class Section:
+    title: str
+    blocks: list = field(default_factory=list)
+    verdict: bool = False  # drawn as the box on top
+
+
+@dataclass
+class Document:
+    title: str
+    sections: list[Section]
+    meta: list[tuple[str, str]]
+
+
+def sha256(path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _num(x, unit: str = "", fmt: str = ".4g") -> str:
+    if x is None or (isinstance(x, float) and not np.isfinite(x)):
+        return "-" if x is None else f"{x} {unit}".strip()
+    return f"{x:{fmt}} {unit}".strip()
+
+
+def _vec(v, unit: str, fmt: str = ".4g") -> str:
+    return "[" + ", ".join(f"{x:{fmt}}" for x in np.ravel(v)) + f"] {unit}".rstrip()
+
+
+def header(a: Analysis, source: str) -> Section:
+    """Body, file and its SHA-256, units, mass, CoM, I0, provenance (theory sections 2-4)."""
+    b, u = a.body, a.body.units
+    p = b.provenance
+    fields = [("body", b.name), ("file", source), ("SHA-256", sha256(source)), ("units", str(u)),
+              ("mass", _num(b.mass, u.mass, ".6g")), ("CoM", _vec(b.com, u.length)),
+              ("I0 (diagonal, principal frame)", _vec(np.diag(b.I0), f"{u.mass} {u.length}^2", ".6g")),
+              ("modes", f"{b.nf} flexible, f1 = {_num(b.frequencies_hz[0], u.frequency)}"),
+              ("mass matrix", p.mass_matrix), ("method", p.method), ("source", p.source)]
+    if b.fe is not None:
+        fields.append(("mesh", f"{b.fe.mesh.n_cells} cells ({', '.join(b.fe.mesh.cells)}), {b.fe.mesh.n_nodes} nodes"))
+    if b.fe is not None and b.fe.material is not None:
+        m = b.fe.material
+        fields.append(("material", f"{m.name}: E = {m.E:g} {u.stress}, nu = {m.nu:g}, rho = {m.rho:g} "
+                                   f"{u.mass}/{u.length}^3"))
+    blocks = [("fields", fields)]
+    if p.notes:
+        blocks.append(("items", list(p.notes)))
+    return Section(f"Body: {b.name}", blocks)
+
+
+def options_section(a: Analysis) -> Section:
+    """Every option and threshold the advice used (theory section 8)."""
+    d = analysis_json(a, "")["situation"]
+    amp = a.options.amplitudes
+    u = a.body.units
+    fields = [("speed w_op", _num(d["speed_rad_s"], "rad/s")), ("f_sys", _num(d["f_sys_hz"], "Hz")),
+              ("connection", d["connection"]), ("widening", str(d["widening"])),
+              ("spin axis", "principal axes" if d["spin_axis"] is None else str(d["spin_axis"])),
+              ("sigma_allow", _num(amp.sigma_allow, u.stress)), ("q_cap", _num(amp.q_cap, "(body units)")),
+              ("deflection cap", _num(amp.deflection_cap, "of the largest dimension")),
+              ("n_ratio", str(a.significance.n_ratio))]
+    fields += [(f"threshold {k}", f"{v:g}") for k, v in d["thresholds"].items()]
+    return Section("Options and thresholds", [("fields", fields)])
+
+
+def verdict(a: Analysis, source: str) -> Section:
+    """Level, term set, Lagrangian or not, the evidence per rule, every warning, softening, basis, solver."""
+    d = analysis_json(a, source)
+    sig = d["significance"]
+    fields = [("level", d["level"]), ("terms", ", ".join(d["terms"])),
+              ("Lagrangian", "yes" if d["lagrangian"] else "no")]
+    if not d["lagrangian"]:
+        sup = d["lagrangian_superset"]
+        fields.append(("consistent alternative", "none (geo_stiff lies outside the kinetic energy)" if sup is None
+                       else f"{', '.join(sup)} (cost x{d['lagrangian_superset_cost']:.3g})"))
+    settings = adams_settings(a.advice.terms)
+    fields += [("Adams", f"{settings['statement']} ({settings['formulation']})")]
+    rules = [(r["rule"], r["name"], _num(r["value"]), _num(r["threshold"]),
+              {True: "fired", False: "not fired", None: "not evaluated"}[r["fired"]], ", ".join(r["terms"]) or "-",
+              r["reason"]) for r in d["rules"]]
+    soft = [(str(k + 1), _num(sig["s_crit"][k] if sig["s_crit"] else None, "rad/s"),
+             _num(sig["s_crit_stiffened"][k] if sig["s_crit_stiffened"] else None, "rad/s"),
+             str(sig["softening_situation"][k]) if sig["softening_situation"] else "-") for k in range(3)]
+    blocks = [("fields", fields),
+              ("table", (("rule", "measure", "value", "threshold", "outcome", "terms", "reason"), rules)),
+              ("table", (("axis", "s_crit", "s_crit with G", "situation (theory 9)"), soft))]
+    if d["basis_adequacy"]:
+        unit = a.body.units.stress
+        blocks.append(("table", (("axis", "energy-norm error", f"widening exact [{unit}]", f"from modes [{unit}]"),
+                                 [(str(r["axis"]), _num(r["energy_error"]), _num(r["sigma_exact"]),
+                                   _num(r["sigma_modal"])) for r in d["basis_adequacy"]])))
+    blocks.append(("items", d["warnings"] or ["no warnings"]))
+    return Section(f"Verdict for {a.body.name}: level {d['level']}", blocks, verdict=True)
+
+
+def paper_tables(analyses: list[Analysis]) -> Section:
+    """Tables 2-5 of the paper, one row per body; the sign-independent ratios beside the paper's."""
+    def mags(a, name):
+        m = a.significance.magnitudes.get(name)
+        return ("-", "-", "-") if m is None else (_num(m.max_abs), _num(m.mean_nonzero), _num(m.frobenius))
+
+    def ratio(r):
+        return "-" if r is None or r.value is None else _num(r.value)
+
+    t2 = [(a.body.name, *mags(a, "W1"), mags(a, "I0")[2]) for a in analyses]
+    t3 = [(a.body.name, *mags(a, "W2"), *mags(a, "W3")) for a in analyses]
+    t45 = [(a.body.name, ratio(a.significance.coriolis), ratio(a.significance.coriolis_paper),
+            ratio(a.significance.centrifugal), ratio(a.significance.centrifugal_paper)) for a in analyses]
+    return Section("Paper tables 2-5", [
+        ("table", (("body", "max |W1|", "mean |W1| (nonzero)", "||W1||", "||I0||"), t2)),
+        ("table", (("body", "max |W2|", "mean |W2|", "||W2||", "max |W3|", "mean |W3|", "||W3||"), t3)),
+        ("table", (("body", "Coriolis ratio (worst signs)", "as in the paper (in phase)",
+                    "centrifugal ratio (worst signs)", "as in the paper"), t45)),
+    ])
+
+
+def paper_figures(analyses: list[Analysis]) -> Section:
+    return Section("Paper figures" + (" across bodies" if len(analyses) > 1 else ""), [
+        ("figure", ("Eigenfrequencies (Fig. 3)", pf.frequencies(analyses))),
+        ("figure", ("Maximum von Mises stress per mode (Fig. 5)", pf.stresses(analyses))),
+        ("figure", ("q_max per mode with the governing criterion (Fig. 7)", pf.q_max(analyses))),
+        ("figure", ("dI_L and dI_Q per mode and axis (Fig. 8)", pf.inertia_change(analyses))),
+        ("figure", ("Coupling measures dI_fT, dI_Tf (Fig. 10)", pf.coupling(analyses))),
+    ])
+
+
+def pictures(a: Analysis) -> Section:
+    blocks = [("figure", ("Campbell diagram with s_crit", pf.campbell_diagram(a)))]
+    if a.body.fe is not None:
+        blocks.insert(0, ("figure", ("Mesh and first modes at q_max", pf.mesh_and_modes(a))))
+    return Section("Pictures", blocks)
+
+
+def verification_section(study: dict) -> Section:
+    """The verification (verify JSON, schema verify.json) and its figures."""
+    v = study["verdict"]
+    rows = [(r["set"], r["scene"], "failed" if r["failed"] else _num(max(
+        (e for e in r["errors"].values() if e is not None), default=None)), "yes" if r["meets"] else "no",
+        _num(r["energy_drift"]), _num(r["wall_s"], "s"), _num(r.get("speedup"), "x")) for r in study["results"]]
+    blocks = [("fields", [("verdict", v["verdict"]), ("statement", v["text"]),
+                          ("criterion", study["criterion"]), ("tolerance", _num(study["tolerance"]))]),
+              ("table", (("set", "scene", "worst error", "meets", "energy drift", "wall time", "speed-up"), rows))]
+    stab = study["stability"]
+    blocks.append(("table", (("stability finding", "measured", "predicted"),
+                             [(k, _num(stab[k]["measured"]), _num(stab[k]["predicted"]))
+                              for k in ("rk4_limit_rest", "rk4_limit_spin", "euler_growth") if k in stab])))
+    for path in study["figures"]:
+        if str(path).endswith(".png") and Path(path).is_file():
+            blocks.append(("figure", (Path(path).stem.replace("_", " "), Path(path))))
+    return Section("Verification by simulation", blocks)
+
+
+def body_sections(a: Analysis, source: str, study: dict | None = None) -> list[Section]:
+    sections = [verdict(a, source), header(a, source), options_section(a), paper_tables([a]),
+                paper_figures([a]), pictures(a)]
+    if study is not None:
+        sections.append(verification_section(study))
+    return sections
+
+
+def meta() -> list[tuple[str, str]]:
+    return [("tool", f"ffrf-advisor {__version__}"),
+            ("date", _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"))]
+
+
+def single(a: Analysis, source: str, study: dict | None = None) -> Document:
+    return Document(f"ffrf-advisor report: {a.body.name}", body_sections(a, source, study), meta())
+
+
+def collection(analyses: list[Analysis], sources: list[str], studies: list[dict | None]) -> Document:
+    """The paper-style comparison across bodies, then one part per body."""
+    overview = Section("Levels", [("table", (("body", "file", "level", "terms"),
+                                             [(a.body.name, s, a.advice.level, ", ".join(a.advice.terms))
+                                              for a, s in zip(analyses, sources)]))], verdict=True)
+    sections = [overview, paper_tables(analyses), paper_figures(analyses)]
+    for a, s, st in zip(analyses, sources, studies):
+        sections += body_sections(a, s, st)
+    return Document(f"ffrf-advisor report: {len(analyses)} bodies", sections, meta())

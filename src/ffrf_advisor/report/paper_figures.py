@@ -1,0 +1,169 @@
+"""The guideline paper's figures for one body or a set (one series per body), a Campbell diagram, and the
+mesh with its first modes at q_max. Each function takes analyses and returns a matplotlib Figure; it
+computes nothing the advisor has not (theory sections 6, 7, 9), except the Campbell frequencies (sim).
+"""
+from __future__ import annotations
+
+import re
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ..analysis import Analysis  # noqa: E402
+from ..guidelines import THRESHOLDS  # noqa: E402
+from ..sim.linearise import campbell  # noqa: E402
+from ..sim.model import build_model  # noqa: E402
+from ..terms import FULL  # noqa: E402
+from .figures import DEFLECTION_SHOWN, _draw, boundary_polygons  # noqa: E402
+
+PAPER_MODES = 10  # the paper plots the first ten modes
+CAMPBELL_POINTS = 26  # as in verify: 12 ms a linearisation, 2 x 3 x 26 of them
+MARKERS = "os^vDP*Xhp"
+AXES = ("axis 1", "axis 2", "axis 3")
+
+
+def label(text: str) -> str:
+    """A body name as a figure label: printable characters a figure file cannot misread, 40 at most."""
+    return re.sub(r"[^\w .,:()+=/\[\]-]", "?", str(text)).replace("--", "-")[:40]
+
+
+def _modes(a: Analysis) -> np.ndarray:
+    return np.arange(1, min(PAPER_MODES, a.body.nf) + 1)
+
+
+def _per_mode(analyses: list[Analysis], values, ylabel: str, title: str, log: bool = True):
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for i, a in enumerate(analyses):
+        p = _modes(a)
+        v = values(a)
+        if v is not None:
+            ax.plot(p, np.asarray(v)[:len(p)], marker=MARKERS[i % len(MARKERS)], lw=1, label=label(a.body.name))
+    if log:
+        ax.set_yscale("log")
+    ax.set_xlabel("mode")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.legend(fontsize=7)
+    return fig
+
+
+def frequencies(analyses: list[Analysis]):
+    """Eigenfrequencies of the first ten modes (guideline paper Fig. 3)."""
+    unit = analyses[0].body.units.frequency
+    return _per_mode(analyses, lambda a: a.body.frequencies_hz, f"f [{unit}]", "Eigenfrequencies (paper Fig. 3)")
+
+
+def stresses(analyses: list[Analysis]):
+    """Largest von Mises stress of each mode at q = 1 (paper Fig. 5)."""
+    unit = analyses[0].body.units.stress
+    return _per_mode(analyses, lambda a: a.body.sigma_max, f"sigma_vM,max at q = 1 [{unit}]",
+                     "Maximum von Mises stress per mode (paper Fig. 5)")
+
+
+def q_max(analyses: list[Analysis]):
+    """q_max per mode (paper Fig. 7), each point marked by the criterion that governs it (theory 6)."""
+    fig, ax = plt.subplots(figsize=(7, 4))
+    kinds = sorted({g for a in analyses for g in a.amplitudes.governs[:PAPER_MODES]})
+    for i, a in enumerate(analyses):
+        p = _modes(a)
+        q = a.amplitudes.q_max[:len(p)]
+        line, = ax.plot(p, q, lw=1, label=label(a.body.name))
+        for k, kind in enumerate(kinds):
+            mask = np.array([g == kind for g in a.amplitudes.governs[:len(p)]])
+            ax.plot(p[mask], q[mask], MARKERS[k % len(MARKERS)], color=line.get_color(), ms=5,
+                    label=f"governed by {kind}" if i == 0 else None)
+    ax.set_yscale("log")
+    ax.set_xlabel("mode")
+    ax.set_ylabel(f"q_max [sqrt({analyses[0].body.units.mass}) {analyses[0].body.units.length}]")
+    ax.set_title("Maximum modal coordinates (paper Fig. 7); marker: governing criterion")
+    ax.legend(fontsize=7)
+    return fig
+
+
+def _axes_panel(ax, analyses, name: str, threshold: float | None) -> None:
+    for i, a in enumerate(analyses):
+        values = getattr(a.significance, name)
+        if values is None:
+            continue
+        p = _modes(a)
+        rows = [values] if values.ndim == 1 else values
+        for k, row in enumerate(rows):
+            ax.plot(p, np.maximum(row[:len(p)], 1e-16), marker=MARKERS[k], lw=0.8, ms=4, color=f"C{i}",
+                    label=f"{label(a.body.name)}" + (f", {AXES[k]}" if values.ndim > 1 else ""))
+    if threshold is not None:
+        ax.axhline(threshold, color="r", ls="--", lw=1, label=f"threshold {threshold:g}")
+    ax.set_yscale("log")
+    ax.set_xlabel("mode")
+    ax.set_ylabel(f"{name} [-]")
+    ax.legend(fontsize=6, ncol=2)
+
+
+def inertia_change(analyses: list[Analysis]):
+    """dI_L and dI_Q per mode and axis at q_max (paper Fig. 8, theory 7), with the rule III thresholds."""
+    thresholds = {**THRESHOLDS, **analyses[0].options.situation.thresholds}
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for ax, name in zip(axes, ("dI_L", "dI_Q")):
+        _axes_panel(ax, analyses, name, thresholds.get(name))
+    fig.suptitle("Change of rotational inertia at q_max per mode and axis (paper Fig. 8)")
+    return fig
+
+
+def coupling(analyses: list[Analysis]):
+    """dI_fT per mode and axis and dI_Tf per mode (paper Fig. 10, theory 7)."""
+    thresholds = {**THRESHOLDS, **analyses[0].options.situation.thresholds}
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for ax, name in zip(axes, ("dI_fT", "dI_Tf")):
+        _axes_panel(ax, analyses, name, thresholds.get(name))
+    fig.suptitle("Influence of inertia coupling at q_max (paper Fig. 10)")
+    return fig
+
+
+def campbell_diagram(a: Analysis):
+    """Flexible frequencies against spin about each principal axis (full FFRF set, and with geo_stiff when the
+    body carries G); s_crit without and with stiffening marked (theory 9)."""
+    body, sig = a.body, a.significance
+    crit = [c for c in (sig.s_crit, sig.s_crit_stiffened) if c is not None]
+    finite = np.concatenate([c[np.isfinite(c)] for c in crit]) if crit else np.array([])
+    top = 1.25 * max(finite.max() if finite.size else 0.0, a.options.situation.w_op or 0.0, 1e-9)
+    speeds = np.linspace(0.0, top, CAMPBELL_POINTS)
+    sets = {"full FFRF": FULL}
+    if body.geometric is not None:
+        sets["full FFRF + geo_stiff"] = (*FULL, "geo_stiff")
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), sharey=True)
+    for k, ax in enumerate(axes):
+        for i, (name, terms) in enumerate(sets.items()):
+            f, _ = campbell(build_model(body, terms), np.eye(3)[k], speeds)
+            for p in range(f.shape[1]):
+                ax.plot(speeds, f[:, p], color=f"C{i}", lw=0.8, ls="-" if i == 0 else "--",
+                        label=name if p == 0 else None)
+        for c, style, name in ((sig.s_crit, ":", "s_crit"), (sig.s_crit_stiffened, "-.", "s_crit with G")):
+            if c is not None and np.isfinite(c[k]):
+                ax.axvline(c[k], color="r", ls=style, lw=1, label=f"{name} {c[k]:.4g}")
+        ax.set_xlabel(f"spin about principal {AXES[k]} [rad/{body.units.time}]")
+        ax.legend(fontsize=6)
+    axes[0].set_ylabel(f"frequency [{body.units.frequency}]")
+    fig.suptitle("Campbell diagram: frequencies against spin (theory 9)")
+    return fig
+
+
+def mesh_and_modes(a: Analysis, modes: int = 3):
+    """The mesh and the first modes deformed at q_max; the exaggeration of each drawing is in its title."""
+    body = a.body
+    mesh, Phi = body.fe.mesh, body.fe.Phi
+    polys = boundary_polygons(mesh)
+    n = min(modes, body.nf)
+    fig = plt.figure(figsize=(3.2 * (n + 1), 3.2))
+    _draw(fig.add_subplot(1, n + 1, 1, projection="3d"), mesh.points, polys, None,
+          f"{label(body.name)}: {mesh.n_cells} elements")
+    for p in range(n):
+        u = a.amplitudes.q_max[p] * Phi[:, :, p]
+        size = np.linalg.norm(u, axis=1)
+        true = size.max() / mesh.largest_dimension()
+        scale = DEFLECTION_SHOWN / max(true, 1e-300)
+        _draw(fig.add_subplot(1, n + 1, p + 2, projection="3d"), mesh.points + scale * u, polys, size,
+              f"mode {p + 1} at q_max, x{scale:.3g}\n(true deflection {true:.2g} of size)")
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,166 @@
+"""Reports (issue 15): self-contained HTML and multi-page PDF, through the CLI."""
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from ffrf_advisor.cli import app
+
+ROOT = Path(__file__).resolve().parents[1]
+BEAM = ROOT / "sample_bodies" / "beam.ffrf.h5"
+PLATE = ROOT / "sample_bodies" / "plate.ffrf.h5"
+FIGURES = 7  # Fig. 3, 5, 7, 8, 10 of the paper, the mesh with modes at q_max, the Campbell diagram
+runner = CliRunner()
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                  "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                  "--hide-scrollbars"]
+
+
+class Page(HTMLParser):
+    """Tags, the attributes that load something, and the text of a page."""
+
+    def __init__(self):
+        super().__init__()
+        self.tags, self.links, self.text = [], [], []
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+        self.links += [v for k, v in attrs if k in ("src", "href", "xlink:href", "data", "action") and v]
+
+    def handle_data(self, data):
+        self.text.append(data)
+
+
+def _report(tmp_path, *args, name="r.html"):
+    out = tmp_path / name
+    result = runner.invoke(app, ["report", *map(str, args), "--speed", "1rad/s", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def _parse(path) -> Page:
+    page = Page()
+    page.feed(path.read_text(encoding="utf-8"))
+    page.close()
+    return page
+
+
+@pytest.fixture(scope="module")
+def beam_html(tmp_path_factory):
+    return _report(tmp_path_factory.mktemp("html"), BEAM)
+
+
+def test_html_parses_and_carries_the_level_and_every_figure(beam_html):
+    page = _parse(beam_html)
+    text = " ".join(page.text)
+    assert "Verdict for beam: level III" in text and "gyro0" in text and "SHA-256" in text
+    assert page.tags.count("figure") == FIGURES
+    assert page.tags.count("svg") + page.tags.count("img") >= FIGURES
+    for title in ("Fig. 3", "Fig. 5", "Fig. 7", "Fig. 8", "Fig. 10", "Campbell", "at q_max"):
+        assert title in text, title
+
+
+def test_html_references_nothing_outside_itself(beam_html):
+    page = _parse(beam_html)
+    html = beam_html.read_text(encoding="utf-8")
+    assert not {"script", "link", "iframe", "object", "embed"} & set(page.tags)
+    assert all(v.startswith(("data:image/png;base64,", "#")) for v in page.links), page.links[:5]
+    assert "url(http" not in html and "@import" not in html
+
+
+def test_a_hostile_body_name_is_escaped(tmp_path):
+    body = tmp_path / "evil.ffrf.h5"
+    shutil.copy(BEAM, body)
+    with h5py.File(body, "r+") as f:
+        f.attrs["name"] = "<script>alert(1)</script>"
+    html = _report(tmp_path, body).read_text(encoding="utf-8")
+    assert "<script" not in html.lower() and "&lt;script&gt;alert(1)&lt;/script&gt;" in html
+
+
+@pytest.mark.slow
+def test_a_set_compares_the_bodies_first_then_one_part_each(tmp_path):
+    page = _parse(_report(tmp_path, BEAM, PLATE, name="set.html"))
+    text = " ".join(page.text)
+    assert text.index("Paper figures across bodies") < text.index("Verdict for beam") < text.index("Verdict for plate")
+    assert page.tags.count("figure") == 5 + 2 * FIGURES
+    first_svg = (tmp_path / "set.html").read_text().split("<svg", 2)[1]
+    assert ">beam<" in first_svg and ">plate<" in first_svg  # one series per body in the comparison
+
+
+def test_the_report_never_overwrites_an_input_or_an_existing_file(tmp_path):
+    target = tmp_path / "r.html"
+    target.write_text("mine")
+    result = runner.invoke(app, ["report", str(BEAM), "-o", str(target)])
+    assert result.exit_code == 2 and "--force" in result.output and target.read_text() == "mine"
+    result = runner.invoke(app, ["report", str(BEAM), "-o", str(tmp_path / "r.txt")])
+    assert result.exit_code == 2 and ".html" in result.output
+    copy = tmp_path / "b.ffrf.h5.html"
+    shutil.copy(BEAM, copy)
+    result = runner.invoke(app, ["report", str(copy), "-o", str(copy), "--force"])
+    assert result.exit_code == 2 and "input of this run" in result.output
+
+
+@pytest.mark.skipif(shutil.which("chromium") is None,
+                    reason="Chromium is not installed (.ci/run installs the Debian package chromium)")
+def test_the_html_renders_in_headless_chromium(beam_html, tmp_path):
+    from PIL import Image
+
+    shot = tmp_path / "shot.png"
+    done = subprocess.run(["chromium", *CHROMIUM_FLAGS, f"--user-data-dir={tmp_path / 'profile'}",
+                           "--enable-logging=stderr", "--v=0", "--window-size=1200,2000", f"--screenshot={shot}",
+                           beam_html.as_uri()], capture_output=True, text=True, timeout=120)
+    assert shot.is_file(), done.stderr[-2000:]
+    console = [line for line in done.stderr.splitlines() if "CONSOLE" in line or "Failed to load" in line]
+    assert not console, console
+    pixels = np.asarray(Image.open(shot).convert("L"))
+    assert (pixels < 200).mean() > 0.01  # text, tables and figures: not a blank page
+
+
+def test_the_pdf_opens_with_its_pages_and_its_first_page_is_not_blank(tmp_path):
+    import pypdf
+
+    from ffrf_advisor.analysis import Options, analyze
+    from ffrf_advisor.guidelines import Situation
+    from ffrf_advisor.io import read_body
+    from ffrf_advisor.report import document, pdf
+
+    a = analyze(read_body(BEAM, load_fe=True), Options(situation=Situation(w_op=1.0)))
+    path = tmp_path / "r.pdf"
+    pages = pdf.write(document.single(a, str(BEAM)), path)
+    reader = pypdf.PdfReader(path)
+    assert len(reader.pages) == pages >= FIGURES + 1  # every figure on its page, the text before them
+    assert "level III" in reader.pages[0].extract_text()
+    if shutil.which("pdftoppm") is None:
+        pytest.skip("pdftoppm (Debian poppler-utils) is not installed: the page was not rendered")
+    subprocess.run(["pdftoppm", "-png", "-r", "50", "-f", "1", "-l", "1", str(path), str(tmp_path / "page")],
+                   check=True, timeout=60)
+    from PIL import Image
+
+    pixels = np.asarray(Image.open(next(tmp_path.glob("page*.png"))).convert("L"))
+    assert (pixels < 200).mean() > 0.005
+
+
+@pytest.mark.slow
+def test_a_verification_is_run_or_passed_in(tmp_path):
+    folder = tmp_path / "v"
+    done = runner.invoke(app, ["verify", str(BEAM), "--scene", "free-spin", "--repeat", "1", "--speed", "1rad/s",
+                               "-o", str(folder), "--json"])
+    assert done.exit_code == 0, done.output
+    (tmp_path / "v.json").write_text(done.stdout)
+    out = tmp_path / "v.html"
+    result = runner.invoke(app, ["report", str(BEAM), "--speed", "1rad/s", "--verification",
+                                 str(tmp_path / "v.json"), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    page = _parse(out)
+    text = " ".join(page.text)
+    verdict = json.loads(done.stdout)["verdict"]
+    assert "Verification by simulation" in text and verdict["text"] in text
+    assert page.tags.count("figure") > FIGURES  # the verification's figures too

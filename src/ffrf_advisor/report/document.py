@@ -4,7 +4,8 @@ A block is one of
   ("fields", [(name, value), ...])        name-value lines
   ("table", (header, rows))               rows of strings
   ("items", [text, ...])                  a list (warnings, notes)
-  ("figure", (title, Figure | Path))      a matplotlib figure, or a PNG file of a verification
+  ("figure", (title, make | Path))        a function that makes a matplotlib figure (made when drawn, one
+                                          open at a time), or a PNG file of a verification
 Every number carries its unit; every string from a body file is plain text here (the renderers escape).
 """
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -144,18 +146,18 @@ def paper_tables(analyses: list[Analysis]) -> Section:
 
 def paper_figures(analyses: list[Analysis]) -> Section:
     return Section("Paper figures" + (" across bodies" if len(analyses) > 1 else ""), [
-        ("figure", ("Eigenfrequencies (Fig. 3)", pf.frequencies(analyses))),
-        ("figure", ("Maximum von Mises stress per mode (Fig. 5)", pf.stresses(analyses))),
-        ("figure", ("q_max per mode with the governing criterion (Fig. 7)", pf.q_max(analyses))),
-        ("figure", ("dI_L and dI_Q per mode and axis (Fig. 8)", pf.inertia_change(analyses))),
-        ("figure", ("Coupling measures dI_fT, dI_Tf (Fig. 10)", pf.coupling(analyses))),
+        ("figure", ("Eigenfrequencies (Fig. 3)", partial(pf.frequencies, analyses))),
+        ("figure", ("Maximum von Mises stress per mode (Fig. 5)", partial(pf.stresses, analyses))),
+        ("figure", ("q_max per mode with the governing criterion (Fig. 7)", partial(pf.q_max, analyses))),
+        ("figure", ("dI_L and dI_Q per mode and axis (Fig. 8)", partial(pf.inertia_change, analyses))),
+        ("figure", ("Coupling measures dI_fT, dI_Tf (Fig. 10)", partial(pf.coupling, analyses))),
     ])
 
 
 def pictures(a: Analysis) -> Section:
-    blocks = [("figure", ("Campbell diagram with s_crit", pf.campbell_diagram(a)))]
+    blocks = [("figure", ("Campbell diagram with s_crit", partial(pf.campbell_diagram, a)))]
     if a.body.fe is not None:
-        blocks.insert(0, ("figure", ("Mesh and first modes at q_max", pf.mesh_and_modes(a))))
+        blocks.insert(0, ("figure", ("Mesh and first modes at q_max", partial(pf.mesh_and_modes, a))))
     return Section("Pictures", blocks)
 
 
@@ -178,9 +180,10 @@ def verification_section(study: dict) -> Section:
     return Section("Verification by simulation", blocks)
 
 
-def body_sections(a: Analysis, source: str, study: dict | None = None) -> list[Section]:
-    sections = [verdict(a, source), header(a, source), options_section(a), paper_tables([a]),
-                paper_figures([a]), pictures(a)]
+def body_sections(a: Analysis, source: str, study: dict | None = None, figures: bool = True) -> list[Section]:
+    """One body's part; ``figures=False`` in a set, whose comparison already draws every body's series."""
+    sections = [verdict(a, source), header(a, source), options_section(a), paper_tables([a])]
+    sections += [paper_figures([a]), pictures(a)] if figures else [pictures(a)]
     if study is not None:
         sections.append(verification_section(study))
     return sections
@@ -202,5 +205,5 @@ def collection(analyses: list[Analysis], sources: list[str], studies: list[dict 
                                               for a, s in zip(analyses, sources)]))], verdict=True)
     sections = [overview, paper_tables(analyses), paper_figures(analyses)]
     for a, s, st in zip(analyses, sources, studies):
-        sections += body_sections(a, s, st)
+        sections += body_sections(a, s, st, figures=False)
     return Document(f"ffrf-advisor report: {len(analyses)} bodies", sections, meta())

@@ -10,6 +10,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 from jinja2 import Environment, PackageLoader, select_autoescape
 from markupsafe import Markup
+from PIL import Image
 
 from .document import Document
 
@@ -27,22 +28,27 @@ def _svg(fig) -> str:
     return _METADATA.sub("", text[_SVG_START.search(text).start():])
 
 
-def _png(data: bytes) -> str:
-    return f'<img alt="" src="data:image/png;base64,{base64.b64encode(data).decode()}">'
+def _png(source) -> str:
+    """An <img> of a PNG (a file or bytes), reduced to 256 colours (plots use few: a third of the bytes)."""
+    image = Image.open(source if isinstance(source, Path) else io.BytesIO(source)).convert("RGB")
+    buf = io.BytesIO()
+    image.quantize(256, method=Image.Quantize.MEDIANCUT).save(buf, format="png", optimize=True)
+    return f'<img alt="" src="data:image/png;base64,{base64.b64encode(buf.getvalue()).decode()}">'
 
 
 def figure_html(item) -> Markup:
-    """A matplotlib figure (3-D ones as PNG: their SVG is large) or a PNG file, as markup we made ourselves."""
+    """A figure (made now by ``item()``; 3-D ones as PNG: their SVG is large) or a PNG file, as markup we made
+    ourselves."""
     if isinstance(item, Path):
-        return Markup(_png(item.read_bytes()))
-    three_d = any(ax.name == "3d" for ax in item.axes)
-    if three_d:
+        return Markup(_png(item))
+    fig = item()
+    if any(ax.name == "3d" for ax in fig.axes):
         buf = io.BytesIO()
-        item.savefig(buf, format="png", dpi=PNG_DPI, bbox_inches="tight")
+        fig.savefig(buf, format="png", dpi=PNG_DPI, bbox_inches="tight")
         html = _png(buf.getvalue())
     else:
-        html = _svg(item)
-    plt.close(item)
+        html = _svg(fig)
+    plt.close(fig)
     return Markup(html)
 
 

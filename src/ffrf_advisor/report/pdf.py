@@ -19,6 +19,7 @@ A4 = (8.27, 11.69)  # inches, portrait
 COLUMNS = 100  # characters of a text line at FONT_SIZE on A4
 LINES = 88  # text lines per page
 FONT_SIZE = 6.8
+PDF_DPI = 110  # of the rasterised 3-D pictures
 
 
 def _table(header, rows) -> list[str]:
@@ -75,8 +76,10 @@ def _figure_page(pdf: PdfPages, title: str, item) -> None:
         ax.set_axis_off()
         ax.set_title(title)
     else:
-        fig = item
-    pdf.savefig(fig, bbox_inches="tight")
+        fig = item()
+        for ax in fig.axes:
+            ax.set_rasterized(ax.name == "3d")  # thousands of mesh faces: an image, not vectors
+    pdf.savefig(fig, bbox_inches="tight", dpi=PDF_DPI)
     plt.close(fig)
 
 

@@ -164,3 +164,14 @@ def test_a_verification_is_run_or_passed_in(tmp_path):
     verdict = json.loads(done.stdout)["verdict"]
     assert "Verification by simulation" in text and verdict["text"] in text
     assert page.tags.count("figure") > FIGURES  # the verification's figures too
+
+
+def test_an_invariants_file_without_I9_reports_what_it_cannot_draw(tmp_path):
+    inv = tmp_path / "b.ffinv.json"
+    assert runner.invoke(app, ["convert", str(BEAM), str(inv)]).exit_code == 0
+    doc = json.loads(inv.read_text())
+    for key in ("I9", "max_von_mises", "max_von_mises_node"):
+        doc.pop(key, None)
+    inv.write_text(json.dumps(doc))
+    text = " ".join(_parse(_report(tmp_path, inv)).text)
+    assert "Campbell diagram not drawn" in text and "not evaluable (missing invariants)" in text

@@ -119,7 +119,8 @@ def verdict(a: Analysis, source: str) -> Section:
         blocks.append(("table", (("axis", "energy-norm error", f"widening exact [{unit}]", f"from modes [{unit}]"),
                                  [(str(r["axis"]), _num(r["energy_error"]), _num(r["sigma_exact"]),
                                    _num(r["sigma_modal"])) for r in d["basis_adequacy"]])))
-    blocks.append(("items", d["warnings"] or ["no warnings"]))
+    missing = [f"not evaluable (missing invariants): {name}" for name in sig["not_evaluable"]]
+    blocks.append(("items", d["warnings"] + missing or ["no warnings"]))
     return Section(f"Verdict for {a.body.name}: level {d['level']}", blocks, verdict=True)
 
 
@@ -155,7 +156,11 @@ def paper_figures(analyses: list[Analysis]) -> Section:
 
 
 def pictures(a: Analysis) -> Section:
-    blocks = [("figure", ("Campbell diagram with s_crit", partial(pf.campbell_diagram, a)))]
+    if a.body.W2 is None or a.body.W3 is None:
+        blocks = [("items", ["Campbell diagram not drawn: the full FFRF set needs W2 and W3, which this body "
+                             "does not carry (an invariants file without I9 or I5)"])]
+    else:
+        blocks = [("figure", ("Campbell diagram with s_crit", partial(pf.campbell_diagram, a)))]
     if a.body.fe is not None:
         blocks.insert(0, ("figure", ("Mesh and first modes at q_max", partial(pf.mesh_and_modes, a))))
     return Section("Pictures", blocks)

@@ -46,7 +46,10 @@ def _per_mode(analyses: list[Analysis], values, ylabel: str, title: str, log: bo
     ax.set_xlabel("mode")
     ax.set_ylabel(ylabel)
     ax.set_title(title)
-    ax.legend(fontsize=7)
+    if ax.lines:
+        ax.legend(fontsize=7)
+    else:
+        ax.text(0.5, 0.5, "not carried by the body file", ha="center", transform=ax.transAxes)
     return fig
 
 
@@ -98,7 +101,10 @@ def _axes_panel(ax, analyses, name: str, threshold: float | None) -> None:
     ax.set_yscale("log")
     ax.set_xlabel("mode")
     ax.set_ylabel(f"{name} [-]")
-    ax.legend(fontsize=6, ncol=2)
+    if any(line.get_label() and not line.get_label().startswith("threshold") for line in ax.lines):
+        ax.legend(fontsize=6, ncol=2)
+    else:
+        ax.text(0.5, 0.5, "not evaluable: invariants missing", ha="center", transform=ax.transAxes)
 
 
 def inertia_change(analyses: list[Analysis]):

@@ -134,6 +134,7 @@ def test_sample_command_writes_the_recipe_and_refuses_to_overwrite(tmp_path, shi
     assert huge.exit_code == 2 and "--refine 50" in huge.output
 
 
+@pytest.mark.slow
 def test_sample_refine_gives_a_finer_mesh(tmp_path):
     out = tmp_path / "beam2.ffrf.h5"
     assert runner.invoke(app, ["sample", "beam", "--refine", "2", "-o", str(out)]).exit_code == 0
@@ -142,6 +143,7 @@ def test_sample_refine_gives_a_finer_mesh(tmp_path):
     assert abs(fine.frequencies_hz[0] / 106.2 - 1) < 2e-3
 
 
+@pytest.mark.slow
 def test_compare_prints_the_table_and_json(shipped):
     files = [str(DIR / f"{n}.ffrf.h5") for n in SAMPLES]
     table = runner.invoke(app, ["compare", *files, "--speed", "1rad/s"], env={"COLUMNS": "240"})

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .invariants import EPS, ShapeIntegrals
+from .invariants import EPS, RotaryIntegrals, ShapeIntegrals
 
 SIGNS = ("adams", "mbdyn")  # MBDyn stores I8 with the opposite sign
 
@@ -22,32 +22,38 @@ def _minus_trace(A: np.ndarray, axes: str) -> np.ndarray:
 
 
 def to_adams(J: ShapeIntegrals, I8_sign: str = "adams") -> dict[str, np.ndarray]:
-    """I1..I9 of the shape integrals J (translational nodes; I5 and I9 only when Sbar is known)."""
+    """I1..I9 of the shape integrals J (I5 and I9 only when Sbar is known). With nodal rotary inertia
+    (theory 3b) I4, I6 and I7 include it, and the rotary parts are given apart as
+    ``nodal_rotary_inertia_sum``, ``rotary_I4`` and ``rotary_I6`` (I5, I8, I9 are translational)."""
     inv = {
         "I1": np.array(J.mass),
         "I2": J.first_moment,
         "I3": J.mode_sum,
-        "I4": np.einsum("abc,bcj->aj", EPS, J.Ibar),
-        "I7": np.trace(J.I) * np.eye(3) - J.I,
+        "I4": J.mean_axis_residual(),
+        "I7": J.I0(),
         "I8": np.moveaxis(_minus_trace(J.Ibar, "j"), 2, 0) * (1 if I8_sign == "adams" else -1),  # (j, k, l)
     }
     if J.Sbar is not None:
         inv["I5"] = np.einsum("abc,bcji->jai", EPS, J.Sbar)  # I5_j[:, i] = sum m Phi_j x Phi_i
-        inv["I6"] = np.einsum("kkij->ij", J.Sbar)
+        inv["I6"] = J.modal_mass()
         inv["I9"] = np.moveaxis(_minus_trace(J.Sbar, "ij"), (2, 3), (0, 1))  # (i, j, k, l)
     elif J.spin is not None:
         inv["I5"] = np.einsum("aji->jai", J.spin)
+    if J.rotary is not None:
+        inv.update(nodal_rotary_inertia_sum=J.rotary.J, rotary_I4=J.rotary.mean_axis, rotary_I6=J.rotary.modal_mass)
     return inv
 
 
 def from_adams(inv: dict[str, np.ndarray], nf: int, I8_sign: str = "adams") -> ShapeIntegrals:
     """Shape integrals from I1, I2, I7, I8 and optional I3, I5, I9 (section 3.3).
 
-    I_kl = 1/2 tr(I7) delta_kl - I7[k, l], so that I0 = I7 exactly (nodal
-    rotary inertia included). Without I9, Sbar is unknown; with I5 then W3
-    is still known (``spin``).
+    I_kl = 1/2 tr(I7') delta_kl - I7'[k, l], so that I0 = I7 exactly, with I7' = I7 less the
+    ``nodal_rotary_inertia_sum`` when the file gives it (then carried as the rotary sums of theory 3b with
+    ``rotary_I4`` and ``rotary_I6``), else I7 (rotary inertia folded into I). Without I9, Sbar is unknown;
+    with I5 then W3 is still known (``spin``).
     """
-    I7 = inv["I7"]
+    rotary = _rotary(inv, nf)
+    I7 = inv["I7"] - (0.0 if rotary is None else rotary.J)
     C = np.moveaxis(inv["I8"] * (1 if I8_sign == "adams" else -1), 0, 2)  # I8[k, l, j]
     Ibar = np.swapaxes(C, 0, 1) - 0.5 * np.einsum("kkj->j", C) * np.eye(3)[:, :, None]
     Sbar = spin = None
@@ -64,7 +70,17 @@ def from_adams(inv: dict[str, np.ndarray], nf: int, I8_sign: str = "adams") -> S
         Sbar=Sbar,
         mode_sum=inv.get("I3", np.zeros((3, nf))),
         spin=spin,
+        rotary=rotary,
     )
+
+
+def _rotary(inv: dict[str, np.ndarray], nf: int) -> RotaryIntegrals | None:
+    """The rotary sums of theory 3b from the file's nodal_rotary_inertia_sum, rotary_I4, rotary_I6 (absent
+    parts zero); None without the first."""
+    if "nodal_rotary_inertia_sum" not in inv:
+        return None
+    return RotaryIntegrals(inv["nodal_rotary_inertia_sum"], inv.get("rotary_I4", np.zeros((3, nf))),
+                           inv.get("rotary_I6", np.zeros((nf, nf))))
 
 
 def w3_from_I9(I9: np.ndarray) -> np.ndarray:

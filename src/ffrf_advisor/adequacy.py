@@ -25,6 +25,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from .body import SYM_PAIRS, StaticCentrifugal
+from .errors import FFRFError
 from .fe.assembly import full_mass, stiffness_matrix
 from .fe.modal import rigid_modes
 from .fe.stress import nodal_stress, von_mises
@@ -83,6 +84,10 @@ def static_centrifugal(fe, material) -> tuple[StaticCentrifugal, np.ndarray]:
     """The exact static response of an FE body to the six load cases at unit spin: the stored summary of the
     principal axes (compliance, largest von Mises stress) and the deflections U (3n, 6) (the first three are the
     residual vectors of ``augment``, all six give the prestress of the geometric stiffness)."""
+    if fe.rotary is not None:
+        raise FFRFError("static centrifugal response: expected translational (solid-element) nodes; this body's "
+                        f"{len(fe.rotary.nodes)} nodes with rotary inertia (theory 3b) need 6-DOF stiffness and "
+                        "loads, which are not supported")
     X = fe.mesh.points
     K = fe.K if fe.K is not None else stiffness_matrix(fe.mesh, material)
     F = centrifugal_loads(X, fe.Ms)

@@ -8,7 +8,8 @@ import scipy.sparse as sp
 
 from .fe.material import Material
 from .fe.mesh import Mesh
-from .invariants import ShapeIntegrals, frozen_array, principal_axes
+from .invariants import (RotaryIntegrals, ShapeIntegrals, frozen_array, principal_axes, rotary_integrals,
+                         shape_integrals)
 from .units import TMM, Units, factor
 
 MASS_KINDS = ("consistent", "lumped", "unknown")
@@ -50,6 +51,34 @@ class Provenance:
 
 
 @dataclass(frozen=True)
+class NodalRotary:
+    """The nodes that carry rotary inertia (theory 3b): indices (k,), J_p (k, 3, 3), mode rotations (k, 3, nf)."""
+
+    nodes: np.ndarray
+    J: np.ndarray
+    Phi: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "nodes", np.asarray(self.nodes, dtype=np.int64))
+        for name in ("J", "Phi"):
+            object.__setattr__(self, name, frozen_array(getattr(self, name)))
+
+    def integrals(self) -> RotaryIntegrals:
+        return rotary_integrals(self.J, self.Phi)
+
+    def transformed(self, R: np.ndarray) -> "NodalRotary":
+        """In axes given by the columns of R: J' = R^T J R, rotations R^T Phi*."""
+        return NodalRotary(self.nodes, np.einsum("ak,iab,bl->ikl", R, self.J, R), np.einsum("ak,iap->ikp", R, self.Phi))
+
+    def converted(self, src: Units, dst: Units) -> "NodalRotary":
+        return NodalRotary(self.nodes, self.J * factor(src, dst, "inertia"),
+                           self.Phi * factor(src, dst, "mode_rotation"))
+
+    def with_modes(self, ix: np.ndarray) -> "NodalRotary":
+        return NodalRotary(self.nodes, self.J, self.Phi[:, :, ix])
+
+
+@dataclass(frozen=True)
 class ModalFE:
     """Nodal FE data of a body: mesh, scalar mass Ms (n x n), modes Phi (n, 3, nf), optional K and stress."""
 
@@ -59,10 +88,16 @@ class ModalFE:
     K: sp.csr_array | None = None
     stress_nodal: np.ndarray | None = None  # von Mises (n, nf) per unit modal coordinate
     material: Material | None = None        # in the body's units; with it K and stresses can be recomputed
+    rotary: NodalRotary | None = None       # nodes with rotary inertia and their mode rotations (theory 3b)
 
     def __post_init__(self):
         object.__setattr__(self, "Phi", frozen_array(self.Phi))
         object.__setattr__(self, "stress_nodal", frozen_array(self.stress_nodal))
+
+    def integrals(self) -> ShapeIntegrals:
+        """The shape integrals of theory section 3 by nodal sums, with the rotary sums of 3b."""
+        return shape_integrals(self.mesh.points, self.Ms, self.Phi,
+                               None if self.rotary is None else self.rotary.integrals())
 
     def max_deflection(self) -> np.ndarray:
         """Largest nodal displacement magnitude of each mode at unit modal coordinate (nf,)."""
@@ -76,7 +111,8 @@ class ModalFE:
         if K is not None:
             T = sp.kron(sp.eye_array(self.mesh.n_nodes), R, format="csr")
             K = sp.csr_array(T.T @ K @ T)
-        return replace(self, mesh=mesh, Phi=Phi, K=K)
+        rotary = None if self.rotary is None else self.rotary.transformed(R)
+        return replace(self, mesh=mesh, Phi=Phi, K=K, rotary=rotary)
 
     def converted(self, src: Units, dst: Units) -> "ModalFE":
         mesh = Mesh(self.mesh.points * factor(src, dst, "length"), dict(self.mesh.cells))
@@ -90,6 +126,7 @@ class ModalFE:
             material=None if self.material is None else replace(
                 self.material, E=self.material.E * factor(src, dst, "stress"),
                 rho=self.material.rho * factor(src, dst, "density")),
+            rotary=None if self.rotary is None else self.rotary.converted(src, dst),
         )
 
 
@@ -229,9 +266,11 @@ class FlexibleBody:
         ints = self.integrals
         take = lambda a, axes: _per_mode(a, ix, axes)  # noqa: E731
         integrals = replace(ints, Ibar=take(ints.Ibar, 1), mode_sum=take(ints.mode_sum, 1),
-                            Sbar=take(ints.Sbar, 2), spin=take(ints.spin, 2))
-        fe = None if self.fe is None else replace(self.fe, Phi=self.fe.Phi[:, :, ix],
-                                                  stress_nodal=take(self.fe.stress_nodal, 1))
+                            Sbar=take(ints.Sbar, 2), spin=take(ints.spin, 2),
+                            rotary=None if ints.rotary is None else ints.rotary.with_modes(ix))
+        fe = None if self.fe is None else replace(
+            self.fe, Phi=self.fe.Phi[:, :, ix], stress_nodal=take(self.fe.stress_nodal, 1),
+            rotary=None if self.fe.rotary is None else self.fe.rotary.with_modes(ix))
         return replace(self, integrals=integrals, eigenvalues=self.eigenvalues[ix],
                        sigma_max=take(self.sigma_max, 1), fe=fe, geometric=take(self.geometric, 2))
 

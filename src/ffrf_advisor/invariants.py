@@ -35,6 +35,42 @@ def frozen_array(a):
 
 
 @dataclass(frozen=True)
+class RotaryIntegrals:
+    """Sums over nodes that carry rotary inertia J_p (3x3) and mode rotations Phi*_p (3 x nf) (theory 3b).
+
+    J           sum J_p                        (3, 3)   adds to I0 (Adams I7)
+    mean_axis   sum J_p Phi*_p                 (3, nf)  adds to the rotational mean-axis residual (Adams I4)
+    modal_mass  sum Phi*_p^T J_p Phi*_p        (nf, nf) adds to the modal mass (Adams I6)
+    """
+
+    J: np.ndarray
+    mean_axis: np.ndarray
+    modal_mass: np.ndarray
+
+    def __post_init__(self):
+        for name in ("J", "mean_axis", "modal_mass"):
+            object.__setattr__(self, name, frozen_array(getattr(self, name)))
+
+    def rotated(self, R: np.ndarray) -> "RotaryIntegrals":
+        """In axes given by the columns of R: J' = R^T J R, (J Phi*)' = R^T J Phi*; the modal mass is a scalar."""
+        return RotaryIntegrals(_sym(R.T @ self.J @ R), R.T @ self.mean_axis, self.modal_mass)
+
+    def converted(self, src: Units, dst: Units) -> "RotaryIntegrals":
+        return RotaryIntegrals(self.J * factor(src, dst, "inertia"), self.mean_axis * factor(src, dst, "Ibar"),
+                               self.modal_mass)
+
+    def with_modes(self, ix: np.ndarray) -> "RotaryIntegrals":
+        return RotaryIntegrals(self.J, self.mean_axis[:, ix], self.modal_mass[ix][:, ix])
+
+
+def rotary_integrals(J_nodes: np.ndarray, Phi_rot: np.ndarray) -> RotaryIntegrals:
+    """The sums of theory 3b from nodal rotary inertia (k, 3, 3) and mode rotations (k, 3, nf) of those nodes."""
+    JP = np.einsum("iab,ibp->iap", J_nodes, Phi_rot)
+    return RotaryIntegrals(_sym(J_nodes.sum(axis=0)), JP.sum(axis=0),
+                           _sym(np.einsum("iap,iar->pr", Phi_rot, JP)))
+
+
+@dataclass(frozen=True)
 class ShapeIntegrals:
     """Nodal-sum integrals of one body in its floating frame (theory section 3).
 
@@ -46,6 +82,8 @@ class ShapeIntegrals:
     mode_sum      sum m S = 1^T Ms Phi_k  (3, nf)  (zero for free-surface modes)
     spin          W3 as (3, nf, nf) when only it is known (an invariants file
                   with Adams' I5 but no I9); None when Sbar is given
+    rotary        the sums of nodes with rotary inertia (theory 3b), or None
+                  (translational nodes only); W1, W2, W3 stay translational
 
     Without Sbar, W2 is not evaluable (None), and so is W3 unless ``spin`` is given.
     """
@@ -57,6 +95,7 @@ class ShapeIntegrals:
     Sbar: np.ndarray | None
     mode_sum: np.ndarray
     spin: np.ndarray | None = None
+    rotary: RotaryIntegrals | None = None
 
     def __post_init__(self):
         for name in ("first_moment", "I", "Ibar", "Sbar", "mode_sum", "spin"):
@@ -79,8 +118,14 @@ class ShapeIntegrals:
         return self.first_moment / self.mass
 
     def I0(self) -> np.ndarray:
-        """Inertia tensor of the undeformed body about the frame origin."""
-        return I0(self.I)
+        """Inertia tensor of the undeformed body about the frame origin, nodal rotary inertia included (3b)."""
+        return I0(self.I) + (0.0 if self.rotary is None else self.rotary.J)
+
+    def modal_mass(self) -> np.ndarray | None:
+        """sum m Phi^T Phi (+ sum Phi*^T J Phi*): the identity for mass-normalised modes; None without Sbar."""
+        if self.Sbar is None:
+            return None
+        return np.einsum("kkpr->pr", self.Sbar) + (0.0 if self.rotary is None else self.rotary.modal_mass)
 
     def W1(self) -> np.ndarray:
         return W1(self.Ibar)
@@ -94,8 +139,8 @@ class ShapeIntegrals:
         return None if self.spin is None else self.spin.reshape(3 * self.nf, self.nf)
 
     def mean_axis_residual(self) -> np.ndarray:
-        """sum m u0~ S (3, nf): zero for modes satisfying the mean-axis conditions."""
-        return np.einsum("klm,lmp->kp", EPS, self.Ibar)
+        """sum m u0~ S (+ sum J Phi*, theory 3b) (3, nf): zero for modes satisfying the mean-axis conditions."""
+        return np.einsum("klm,lmp->kp", EPS, self.Ibar) + (0.0 if self.rotary is None else self.rotary.mean_axis)
 
     def shifted(self, c: np.ndarray) -> "ShapeIntegrals":
         """The integrals with the frame origin moved to c (x' = x - c)."""
@@ -115,6 +160,7 @@ class ShapeIntegrals:
             Sbar=None if self.Sbar is None else np.einsum("ak,bl,abpr->klpr", R, R, self.Sbar),
             mode_sum=R.T @ self.mode_sum,
             spin=None if self.spin is None else np.einsum("ak,apr->kpr", R, self.spin),
+            rotary=None if self.rotary is None else self.rotary.rotated(R),
         )
 
     def converted(self, src: Units, dst: Units) -> "ShapeIntegrals":
@@ -127,11 +173,13 @@ class ShapeIntegrals:
             Sbar=self.Sbar,
             mode_sum=self.mode_sum * factor(src, dst, "mode_sum"),
             spin=self.spin,
+            rotary=None if self.rotary is None else self.rotary.converted(src, dst),
         )
 
 
-def shape_integrals(X: np.ndarray, Ms: sp.sparray, Phi) -> ShapeIntegrals:
-    """Shape integrals from node coordinates X (n, 3), scalar mass Ms (n, n) and modes Phi (n, 3, nf).
+def shape_integrals(X: np.ndarray, Ms: sp.sparray, Phi, rotary: RotaryIntegrals | None = None) -> ShapeIntegrals:
+    """Shape integrals from node coordinates X (n, 3), scalar mass Ms (n, n) and modes Phi (n, 3, nf), with
+    the sums of the nodes that carry rotary inertia (``rotary_integrals``, theory 3b) when there are any.
 
     One sparse product Y = Ms Phi and one dense product Phi^T Y, both over
     blocks of nodal rows so that the extra memory is one block of Y.
@@ -161,6 +209,7 @@ def shape_integrals(X: np.ndarray, Ms: sp.sparray, Phi) -> ShapeIntegrals:
         Ibar=moments[1:].reshape(3, 3, nf),
         Sbar=Sbar.reshape(3, nf, 3, nf).transpose(0, 2, 1, 3),
         mode_sum=moments[0].reshape(3, nf),
+        rotary=rotary,
     )
 
 

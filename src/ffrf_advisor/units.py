@@ -98,6 +98,7 @@ DIM = {
     "Sbar": (0, 0, 0),
     "mode_sum": (0.5, 0, 0),
     "mode": (-0.5, 0, 0),
+    "mode_rotation": (-0.5, -1, 0),  # small rotation per unit modal coordinate (theory 3b)
     "q": (0.5, 1, 0),
     "eigenvalue": (0, 0, -2),
     "stiffness": (1, 0, -2),

@@ -34,6 +34,7 @@ STRESS_ALIASES = {"MPa": "N/mm^2", "N/mm2": "N/mm^2", "Pa": "N/m^2", "N/m2": "N/
 def _shapes(nf: int) -> dict[str, tuple]:
     return {"I1": (), "I2": (3,), "I3": (3, nf), "I4": (3, nf), "I5": (nf, 3, nf), "I6": (nf, nf),
             "I7": (3, 3), "I8": (nf, 3, 3), "I9": (nf, nf, 3, 3), "nodal_rotary_inertia_sum": (3, 3),
+            "rotary_I4": (3, nf), "rotary_I6": (nf, nf),
             "eigenvalues": (nf,), "frequencies_hz": (nf,), "generalized_stiffness": (nf, nf),
             "max_von_mises": (nf,), "max_von_mises_node": (nf,), "mode_ids": (nf,)}
 
@@ -223,8 +224,10 @@ def _eigenvalues(d: _Doc, nf: int) -> np.ndarray:
 
 def _invariants(d: _Doc, nf: int) -> dict[str, np.ndarray]:
     shapes = _shapes(nf)
-    inv = {k: d.array(k, shapes[k]) for k in ("I1", "I2", "I3", "I4", "I5", "I6", "I7", "I8", "I9")
-           if k in d.doc}
+    inv = {k: d.array(k, shapes[k]) for k in ("I1", "I2", "I3", "I4", "I5", "I6", "I7", "I8", "I9",
+                                              "nodal_rotary_inertia_sum", "rotary_I4", "rotary_I6") if k in d.doc}
+    if ("rotary_I4" in inv or "rotary_I6" in inv) and "nodal_rotary_inertia_sum" not in inv:
+        d.fail("nodal_rotary_inertia_sum", "present with rotary_I4 and rotary_I6 (theory 3b)", "missing")
     if inv["I1"] <= 0:
         d.fail("I1", "a positive mass", str(float(inv["I1"])))
     scale = np.abs(inv["I7"]).max()
@@ -237,9 +240,10 @@ def _invariants(d: _Doc, nf: int) -> dict[str, np.ndarray]:
         I9 = inv["I9"]
         if np.abs(I9 - np.swapaxes(np.swapaxes(I9, 0, 1), 2, 3)).max() > TOL["I9"] * max(np.abs(I9).max(), 1):
             d.fail("I9", "I9[j][k] equal to I9[k][j] transposed (Adams order)")
-        modal_mass = -0.5 * np.einsum("ijkk->ij", I9)
+        modal_mass = -0.5 * np.einsum("ijkk->ij", I9) + inv.get("rotary_I6", 0.0)
         if np.abs(modal_mass - inv.get("I6", np.eye(nf))).max() > TOL["I6"]:
-            d.fail("I9", "-1/2 trace I9[i][j] equal to I6 (else a wrong I9 order or sign)")
+            d.fail("I9", "-1/2 trace I9[i][j] (+ rotary_I6) equal to I6 (else a wrong I9 order or sign, or rotary "
+                         "inertia not given apart)")
         if "I5" in inv and np.abs(w3_from_I9(I9) - np.einsum("jai->aji", inv["I5"])).max() > \
                 TOL["W3"] * max(np.abs(inv["I5"]).max(), 1):
             d.fail("I5", "W3 from I5 equal to W3 from I9 (else an I5 index swap)")

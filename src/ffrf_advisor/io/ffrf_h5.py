@@ -12,12 +12,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import __version__
-from ..body import MASS_KINDS, FlexibleBody, ModalFE, Provenance, StaticCentrifugal
+from ..body import MASS_KINDS, FlexibleBody, ModalFE, NodalRotary, Provenance, StaticCentrifugal
 from ..errors import BodyFileError
 from ..fe.elements import ELEMENT_TYPES
 from ..fe.material import Material
 from ..fe.mesh import Mesh
-from ..invariants import ShapeIntegrals, shape_integrals
+from ..invariants import RotaryIntegrals, ShapeIntegrals
 from ..units import Units, UnitsError
 from . import Format, register
 from .atomic import atomic_path
@@ -25,8 +25,8 @@ from . import guard
 from .limits import Budget, check_hdf5_references
 
 FORMAT_NAME = "ffrf-body"
-VERSION = 2  # 2: optional /material, /static_centrifugal, /geometric_stiffness (docs/format.md)
-SUPPORTED_VERSIONS = (1, 2)
+VERSION = 3  # 2: optional /material, /static_centrifugal, /geometric_stiffness; 3: optional /rotary (docs/format.md)
+SUPPORTED_VERSIONS = (1, 2, 3)
 NODE_CHUNK = 4096  # nodal rows per HDF5 chunk
 
 
@@ -56,6 +56,9 @@ def _write_integrals(group: h5py.Group, J: ShapeIntegrals) -> None:
     for name in ("first_moment", "I", "Ibar", "Sbar", "mode_sum", "spin"):
         if getattr(J, name) is not None:
             _dataset(g, name, getattr(J, name))
+    if J.rotary is not None:
+        for name in ("J", "mean_axis", "modal_mass"):
+            _dataset(g, f"rotary_{name}", getattr(J.rotary, name))
 
 
 def write(body: FlexibleBody, path: str | os.PathLike, overwrite: bool = False,
@@ -106,6 +109,11 @@ def _write_fe(f: h5py.File, modes: h5py.Group, stress: h5py.Group | None, fe: Mo
         _write_csr(f.create_group("stiffness", track_order=True), "K", fe.K)
     if fe.stress_nodal is not None and stress is not None:
         _dataset(stress, "nodal", fe.stress_nodal, True)
+    if fe.rotary is not None:
+        g = f.create_group("rotary", track_order=True)
+        _dataset(g, "nodes", fe.rotary.nodes, True)
+        _dataset(g, "J", fe.rotary.J, True)
+        _dataset(g, "Phi", fe.rotary.Phi, True)
     if fe.material is not None:
         g = f.create_group("material", track_order=True)
         for key in ("name", "E", "nu", "rho"):
@@ -243,6 +251,9 @@ def _cached_integrals(r: _Reader, nf: int) -> ShapeIntegrals:
         Sbar=r.array("invariants/Sbar", (3, 3, nf, nf)) if "invariants/Sbar" in r.f else None,
         mode_sum=r.array("invariants/mode_sum", (3, nf)),
         spin=r.array("invariants/spin", (3, nf, nf)) if "invariants/spin" in r.f else None,
+        rotary=RotaryIntegrals(r.array("invariants/rotary_J", (3, 3)), r.array("invariants/rotary_mean_axis", (3, nf)),
+                               r.array("invariants/rotary_modal_mass", (nf, nf)))
+        if "invariants/rotary_J" in r.f else None,
     )
 
 
@@ -285,7 +296,7 @@ def _read_open(r: _Reader, path, load_fe: bool) -> FlexibleBody:
         if not has_fe:
             r.fail("modes/Phi", "nodal modes (or a cached invariants group)", "missing")
         fe = _read_fe(r, nf, material)
-        integrals = shape_integrals(fe.mesh.points, fe.Ms, fe.Phi)
+        integrals = fe.integrals()
     else:
         integrals = _cached_integrals(r, nf)
     return FlexibleBody(name=name, integrals=integrals, eigenvalues=eigenvalues, units=units,
@@ -347,7 +358,22 @@ def _read_fe(r: _Reader, nf: int, material: Material | None) -> ModalFE:
     Phi = r.array("modes/Phi", (n, 3, nf))
     K = r.csr("stiffness/K", (3 * n, 3 * n)) if "stiffness/K" in r.f else None
     stress = r.array("stress/nodal", (n, nf)) if "stress/nodal" in r.f else None
-    return ModalFE(mesh, Ms, Phi, K, stress, material)
+    return ModalFE(mesh, Ms, Phi, K, stress, material, _rotary(r, n, nf))
+
+
+def _rotary(r: _Reader, n: int, nf: int) -> NodalRotary | None:
+    """Nodes with rotary inertia (theory 3b): indices in range and unique, J symmetric positive semi-definite."""
+    if "rotary" not in r.f:
+        return None
+    nodes = r.array("rotary/nodes", (None,), integer=True)
+    k = len(nodes)
+    if k and (nodes.min() < 0 or nodes.max() >= n or len(np.unique(nodes)) != k):
+        r.fail("rotary/nodes", f"distinct node indices in [0, {n})")
+    J = r.array("rotary/J", (k, 3, 3))
+    if k and (np.abs(J - J.transpose(0, 2, 1)).max() > 1e-12 * np.abs(J).max()
+              or np.linalg.eigvalsh(J).min() < -1e-12 * np.abs(J).max()):
+        r.fail("rotary/J", "symmetric positive semi-definite 3x3 inertia tensors")
+    return NodalRotary(nodes, J, r.array("rotary/Phi", (k, 3, nf)))
 
 
 register(Format("ffrf-h5", (".ffrf.h5",), read, write))

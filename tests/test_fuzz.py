@@ -23,7 +23,7 @@ from ffrf_advisor.io.calculix import write_deck
 from . import fuzz_readers
 from .fuzz_readers import damage
 
-CASES = 2000  # per reader
+CASES = 1000  # per reader (each read and analysed in a guarded child)
 HARNESS = Path(__file__).resolve().parent / "fuzz_readers.py"
 MESH = box_mesh([60.0, 20.0, 10.0], [3, 1, 1], "hexahedron20")
 NF = 4
@@ -66,6 +66,23 @@ def test_reader_survives_thousands_of_damaged_files(seeds, name):
     report = json.loads(done.stdout.strip().splitlines()[-1])
     assert report["counts"]["other"] == 0, report["offending"]
     assert sum(report["counts"].values()) == CASES and report["counts"]["ffrf_error"] > CASES // 4
+
+
+NASTRAN = Path(__file__).resolve().parents[2] / "shared" / "data" / "nastran" / "beam_modes_m1.op2"
+OP2_CASES = 100  # about 0.4 s each (pyNastran in the guarded child)
+
+
+@pytest.mark.slow
+def test_the_nastran_reader_survives_hundreds_of_damaged_files():
+    pytest.importorskip("pyNastran", reason="the Nastran reader's optional extra")
+    if not NASTRAN.is_file():
+        pytest.skip(f"the shared Nastran file is not at {NASTRAN}")
+    done = subprocess.run([sys.executable, str(HARNESS), str(NASTRAN), str(OP2_CASES), "20261122"],
+                          capture_output=True, text=True, timeout=1800)
+    assert done.returncode == 0, done.stderr[-2000:]
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    assert report["counts"]["other"] == 0, report["offending"]
+    assert sum(report["counts"].values()) == OP2_CASES
 
 
 def test_damaged_files_through_the_cli_give_one_line_and_exit_2(seeds, tmp_path):

@@ -66,6 +66,7 @@ def test_the_static_solution_is_exact_free_of_rigid_motion_and_its_error_formula
     assert np.allclose(static.compliance, beam.static_centrifugal.compliance, rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_the_plate_misses_its_widening_until_augmented_and_then_passes_every_check(plate, tmp_path):
     """Out-of-plane modes carry none of the in-plane centrifugal deflection (error near 1); with the static
     deflections as residual vectors the error falls below 0.01 and the invariants pass theory 4's checks."""

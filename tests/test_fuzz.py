@@ -23,7 +23,7 @@ from ffrf_advisor.io.calculix import write_deck
 from . import fuzz_readers
 from .fuzz_readers import damage
 
-CASES = 1000  # per reader (each read and analysed in a guarded child)
+CASES = 600  # per reader (each read and analysed in a guarded child)
 HARNESS = Path(__file__).resolve().parent / "fuzz_readers.py"
 MESH = box_mesh([60.0, 20.0, 10.0], [3, 1, 1], "hexahedron20")
 NF = 4

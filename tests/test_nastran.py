@@ -79,7 +79,7 @@ def test_the_multi_element_file_parses_with_its_24_element_types_and_without_sca
 def _free_free_run(body, genmass: np.ndarray):
     """A synthetic free-free SOL 103 run of an FE body: six rigid modes, then its modes scaled to ``genmass``."""
     fe = body.fe
-    n, nf = fe.mesh.n_nodes, body.nf
+    n = fe.mesh.n_nodes
     rigid = np.zeros((n, 3, 6))
     rigid[:, :, :3] = np.eye(3)[None]
     T = np.concatenate([rigid, fe.Phi * np.sqrt(genmass)], axis=2)

@@ -156,13 +156,20 @@ def test_the_pdf_opens_with_its_pages_and_its_first_page_is_not_blank(tmp_path):
 
 @pytest.mark.slow
 def test_a_verification_is_run_or_passed_in(tmp_path):
+    from ffrf_advisor.fe.build import modal_body
+    from ffrf_advisor.fe.material import STEEL
+    from ffrf_advisor.fe.mesh import box_mesh
+    from ffrf_advisor.io import write_body
+
+    body = tmp_path / "small.ffrf.h5"  # 4 modes of a 60 x 20 x 10 mm block: a verification in seconds
+    write_body(modal_body(box_mesh([60.0, 20.0, 10.0], [3, 1, 1], "hexahedron20"), STEEL, 4, name="small"), body)
     folder = tmp_path / "v"
-    done = runner.invoke(app, ["verify", str(BEAM), "--scene", "free-spin", "--repeat", "1", "--speed", "1rad/s",
+    done = runner.invoke(app, ["verify", str(body), "--scene", "free-spin", "--repeat", "1", "--speed", "1rad/s",
                                "-o", str(folder), "--json"])
     assert done.exit_code == 0, done.output
     (tmp_path / "v.json").write_text(done.stdout)
     out = tmp_path / "v.html"
-    result = runner.invoke(app, ["report", str(BEAM), "--speed", "1rad/s", "--verification",
+    result = runner.invoke(app, ["report", str(body), "--speed", "1rad/s", "--verification",
                                  str(tmp_path / "v.json"), "-o", str(out)])
     assert result.exit_code == 0, result.output
     page = _parse(out)

@@ -351,6 +351,7 @@ def test_simulate_bad_options_exit_2_in_one_line(tmp_path, args, message):
     assert len(r.stderr.strip().splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_simulate_json_follows_its_schema_and_reports_divergence():
     import json
 

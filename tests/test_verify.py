@@ -59,6 +59,7 @@ def test_level_I_fails_on_the_spinning_beam_and_the_advice_holds(beam):
     assert v.verdict.verdict in ("agree", "conservative") and v.verdict.cheapest not in ("I", "II")
 
 
+@pytest.mark.slow
 def test_level_I_holds_on_the_carbody_at_a_low_speed():
     """At 0.03 rad/s the carbody's centrifugal and gyroscopic effects stay below 1e-3 of the allowable
     (at 1 rad/s they do not: the verification then calls level I unsafe, see docs/verification.md)."""

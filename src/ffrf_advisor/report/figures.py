@@ -58,23 +58,32 @@ def _draw(ax, points: np.ndarray, polys: np.ndarray, colour: np.ndarray | None, 
     ax.set_title(title, fontsize=8)
 
 
-def body_picture(body: FlexibleBody, path: Path, modes: int = 3, overwrite: bool = True) -> None:
-    """PNG: the undeformed mesh and the first ``modes`` mode shapes, coloured by deflection."""
+def modes_figure(body: FlexibleBody, q: np.ndarray | None = None, modes: int = 3, name: str | None = None):
+    """The undeformed mesh and the first ``modes`` mode shapes at modal coordinates ``q`` (1 when None),
+    coloured by deflection; each drawing's exaggeration and its true deflection are in its title."""
     if body.fe is None:
         raise FFRFError(f"{body.name}: no mesh to draw (invariants-only body)")
     mesh, Phi = body.fe.mesh, body.fe.Phi
     polys = boundary_polygons(mesh)
     n = min(modes, body.nf)
-    fig = plt.figure(figsize=(3.2 * (n + 1), 3.0))
+    fig = plt.figure(figsize=(3.2 * (n + 1), 3.2))
     _draw(fig.add_subplot(1, n + 1, 1, projection="3d"), mesh.points, polys, None,
-          f"{body.name}: {mesh.n_cells} elements")
+          f"{name or body.name}: {mesh.n_cells} elements")
     for p in range(n):
-        u = Phi[:, :, p]
+        u = (1.0 if q is None else q[p]) * Phi[:, :, p]
         size = np.linalg.norm(u, axis=1)
-        scale = DEFLECTION_SHOWN * mesh.largest_dimension() / size.max()
+        true = size.max() / mesh.largest_dimension()
+        scale = DEFLECTION_SHOWN / max(true, 1e-300)
         _draw(fig.add_subplot(1, n + 1, p + 2, projection="3d"), mesh.points + scale * u, polys, size,
-              f"mode {p + 1}: {body.frequencies_hz[p]:.4g} Hz")
+              f"mode {p + 1}: {body.frequencies_hz[p]:.4g} {body.units.frequency}"
+              f"{'' if q is None else ' at q_max'}, x{scale:.3g}\n(true deflection {true:.2g} of size)")
     fig.tight_layout()
+    return fig
+
+
+def body_picture(body: FlexibleBody, path: Path, modes: int = 3, overwrite: bool = True) -> None:
+    """PNG: the undeformed mesh and the first ``modes`` mode shapes at unit modal coordinate."""
+    fig = modes_figure(body, modes=modes)
     with atomic_path(path, overwrite) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
     plt.close(fig)

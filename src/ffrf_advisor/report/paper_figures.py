@@ -17,7 +17,7 @@ from ..guidelines import THRESHOLDS  # noqa: E402
 from ..sim.linearise import campbell  # noqa: E402
 from ..sim.model import build_model  # noqa: E402
 from ..terms import FULL  # noqa: E402
-from .figures import DEFLECTION_SHOWN, _draw, boundary_polygons  # noqa: E402
+from .figures import modes_figure  # noqa: E402
 
 PAPER_MODES = 10  # the paper plots the first ten modes
 CAMPBELL_POINTS = 26  # as in verify: 12 ms a linearisation, 2 x 3 x 26 of them
@@ -107,24 +107,23 @@ def _axes_panel(ax, analyses, name: str, threshold: float | None) -> None:
         ax.text(0.5, 0.5, "not evaluable: invariants missing", ha="center", transform=ax.transAxes)
 
 
-def inertia_change(analyses: list[Analysis]):
-    """dI_L and dI_Q per mode and axis at q_max (paper Fig. 8, theory 7), with the rule III thresholds."""
+def _pair(analyses: list[Analysis], names: tuple[str, str], title: str):
     thresholds = {**THRESHOLDS, **analyses[0].options.situation.thresholds}
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for ax, name in zip(axes, ("dI_L", "dI_Q")):
+    for ax, name in zip(axes, names):
         _axes_panel(ax, analyses, name, thresholds.get(name))
-    fig.suptitle("Change of rotational inertia at q_max per mode and axis (paper Fig. 8)")
+    fig.suptitle(title)
     return fig
+
+
+def inertia_change(analyses: list[Analysis]):
+    """dI_L and dI_Q per mode and axis at q_max (paper Fig. 8, theory 7), with the rule III thresholds."""
+    return _pair(analyses, ("dI_L", "dI_Q"), "Change of rotational inertia at q_max per mode and axis (paper Fig. 8)")
 
 
 def coupling(analyses: list[Analysis]):
     """dI_fT per mode and axis and dI_Tf per mode (paper Fig. 10, theory 7)."""
-    thresholds = {**THRESHOLDS, **analyses[0].options.situation.thresholds}
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for ax, name in zip(axes, ("dI_fT", "dI_Tf")):
-        _axes_panel(ax, analyses, name, thresholds.get(name))
-    fig.suptitle("Influence of inertia coupling at q_max (paper Fig. 10)")
-    return fig
+    return _pair(analyses, ("dI_fT", "dI_Tf"), "Influence of inertia coupling at q_max (paper Fig. 10)")
 
 
 def campbell_diagram(a: Analysis):
@@ -156,20 +155,5 @@ def campbell_diagram(a: Analysis):
 
 
 def mesh_and_modes(a: Analysis, modes: int = 3):
-    """The mesh and the first modes deformed at q_max; the exaggeration of each drawing is in its title."""
-    body = a.body
-    mesh, Phi = body.fe.mesh, body.fe.Phi
-    polys = boundary_polygons(mesh)
-    n = min(modes, body.nf)
-    fig = plt.figure(figsize=(3.2 * (n + 1), 3.2))
-    _draw(fig.add_subplot(1, n + 1, 1, projection="3d"), mesh.points, polys, None,
-          f"{label(body.name)}: {mesh.n_cells} elements")
-    for p in range(n):
-        u = a.amplitudes.q_max[p] * Phi[:, :, p]
-        size = np.linalg.norm(u, axis=1)
-        true = size.max() / mesh.largest_dimension()
-        scale = DEFLECTION_SHOWN / max(true, 1e-300)
-        _draw(fig.add_subplot(1, n + 1, p + 2, projection="3d"), mesh.points + scale * u, polys, size,
-              f"mode {p + 1} at q_max, x{scale:.3g}\n(true deflection {true:.2g} of size)")
-    fig.tight_layout()
-    return fig
+    """The mesh and the first modes deformed at q_max (figures.modes_figure)."""
+    return modes_figure(a.body, a.amplitudes.q_max, modes, label(a.body.name))

@@ -13,7 +13,7 @@ pytest.importorskip("pyNastran", reason="the Nastran reader's optional extra (pi
 from ffrf_advisor.analysis import Options, analyze  # noqa: E402
 from ffrf_advisor.cli import app  # noqa: E402
 from ffrf_advisor.guidelines import Situation  # noqa: E402
-from ffrf_advisor.io import nastran, read_body  # noqa: E402
+from ffrf_advisor.io import nastran, read_body, write_body  # noqa: E402
 
 from .fuzz_readers import mutate  # noqa: E402
 
@@ -99,6 +99,22 @@ def test_a_free_free_run_gives_the_bodys_invariants_and_advice():
     assert np.allclose(back.sigma_max, body.sigma_max, rtol=1e-12)
     options = Options(situation=Situation(w_op=300.0))
     assert analyze(back, options).advice.terms == analyze(body, options).advice.terms
+
+
+def test_a_body_from_a_run_is_written_read_and_reported(tmp_path):
+    body = replace(read_body(SAMPLE, load_fe=True), geometric=None, static_centrifugal=None)
+    run, mass = _free_free_run(body, np.full(body.nf, 0.01))
+    rotary = np.zeros((len(run.grids), 3, 3))
+    rotary[0] = np.diag([1e-3, 2e-3, 3e-3])  # one node carries a point inertia: its rotations now count
+    run.R[0, 2, 6:] = 1e-3
+    back = nastran.body_of("synthetic.op2", run, replace(mass, J=rotary))
+    path = tmp_path / "n.ffrf.h5"
+    write_body(back, path)
+    again = read_body(path, load_fe=True)
+    assert np.allclose(again.I0, back.I0) and again.fe.rotary is not None
+    result = runner.invoke(app, ["report", str(path), "--speed", "1rad/s", "-o", str(tmp_path / "n.html")])
+    assert result.exit_code == 0, result.output
+    assert "no solid cells to draw" in (tmp_path / "n.html").read_text()
 
 
 def test_an_offset_point_mass_moves_rigidly_with_its_grid():

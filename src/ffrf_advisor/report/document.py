@@ -161,8 +161,11 @@ def pictures(a: Analysis) -> Section:
                              "does not carry (an invariants file without I9 or I5)"])]
     else:
         blocks = [("figure", ("Campbell diagram with s_crit", partial(pf.campbell_diagram, a)))]
-    if a.body.fe is not None:
+    if a.body.fe is not None and a.body.fe.mesh.cells:
         blocks.insert(0, ("figure", ("Mesh and first modes at q_max", partial(pf.mesh_and_modes, a))))
+    elif a.body.fe is not None:
+        blocks.insert(0, ("items", [f"no solid cells to draw ({a.body.fe.mesh.n_nodes} nodes of beams, shells or "
+                                    "point masses)"]))
     return Section("Pictures", blocks)
 
 

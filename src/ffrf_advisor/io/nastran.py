@@ -170,56 +170,63 @@ class AssembledMass:
 
 
 def assembled_mass(path, m, run: NastranModes) -> AssembledMass:
+    """The mass of the elements and point masses of ``m`` over the grids of ``run`` (theory 3b)."""
     index = {int(g): i for i, g in enumerate(run.grids)}
     n = len(run.grids)
     diag, J = np.zeros(n), np.zeros((n, 3, 3))
-    extra_points, extra_of, extra_mass, extra_J = [], [], [], []
-    solids: dict[tuple[str, float], list] = {}
+    solids = _element_mass(path, m, run, index, diag, J)
+    extra = _point_masses(path, m, run, index, diag, J)
+    k = len(extra)
+    Ms = sp.diags_array(np.concatenate([diag, [e[2] for e in extra]])).tocsr()
+    for (cell, rho), conns in solids.items():
+        hexes = Mesh(run.points, {cell: np.array(conns)})
+        Ms = Ms + sp.block_diag([mass_matrix(hexes, rho), sp.csr_array((k, k))]).tocsr()
+    notes = [f"mass assembled from {', '.join(f'{v} {t}' for t, v in run.element_types.items())}"
+             + (f"; {k} CONM2 with an offset CG as nodes moving rigidly with their grid" if k else "")]
+    return AssembledMass(sp.csr_array(Ms), np.concatenate([J, np.array([e[3] for e in extra]).reshape(k, 3, 3)]),
+                         np.array([e[0] for e in extra]).reshape(k, 3), np.array([e[1] for e in extra], np.int64),
+                         notes)
+
+
+def _element_mass(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: np.ndarray) -> dict:
+    """Lumped line and shell masses into ``diag`` and ``J``; the CHEXA connectivities by (cell type, rho)."""
     refused = sorted({e.type for e in m.elements.values()} - set(LINES) - set(SHELLS) - set(MASSLESS) - {"CHEXA"})
     if refused:
         raise BodyFileError(path, "elements", "element types whose mass the reader assembles (docs/format.md)",
                             ", ".join(refused))
+    solids: dict[tuple[str, float], list] = {}
     for e in m.elements.values():
         if e.type in MASSLESS:
             continue
         nodes = [index[g] for g in e.node_ids if g is not None]
         if e.type == "CHEXA":
             _hexa(path, e, nodes, solids)
-            continue
-        mass = float(e.Mass())
-        if e.type in LINES:
+        elif e.type in LINES:
             a, b = nodes[:2]
-            for i in (a, b):
-                diag[i] += mass / 2
-            if e.type == "CBEAM":
-                axis = run.points[b] - run.points[a]
-                axis /= np.linalg.norm(axis)
-                rho, Jt = e.pid_ref.mid_ref.rho, np.atleast_1d(e.pid_ref.J())[0]
-                for i in (a, b):
-                    J[i] += rho * Jt * e.Length() / 2 * np.outer(axis, axis)
+            diag[[a, b]] += float(e.Mass()) / 2
+            if e.type == "CBEAM":  # half the torsional inertia rho J L at each end, about the axis
+                axis = (run.points[b] - run.points[a]) / e.Length()
+                torsion = e.pid_ref.mid_ref.rho * np.atleast_1d(e.pid_ref.J())[0] * e.Length() / 2
+                J[[a, b]] += torsion * np.outer(axis, axis)
         else:
-            for i in nodes:
-                diag[i] += mass / len(nodes)
+            diag[nodes] += float(e.Mass()) / len(nodes)
+    return solids
+
+
+def _point_masses(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: np.ndarray) -> list[tuple]:
+    """CONM2 at their grid into ``diag`` and ``J``; those with an offset CG as (CG, grid index, mass, inertia)."""
+    extra = []
     for c in m.masses.values():
         if c.type != "CONM2":
             raise BodyFileError(path, "masses", "CONM2 point masses", c.type)
         i = index[c.nid]
-        cg = np.asarray(c.Centroid(), dtype=float)
+        cg, inertia = np.asarray(c.Centroid(), dtype=float), np.asarray(c.Inertia(), dtype=float)
         if np.linalg.norm(cg - run.points[i]) <= 1e-12 * max(1.0, np.abs(run.points).max()):
             diag[i] += c.mass
-            J[i] += np.asarray(c.Inertia(), dtype=float)
+            J[i] += inertia
         else:
-            extra_points.append(cg), extra_of.append(i), extra_mass.append(c.mass)
-            extra_J.append(np.asarray(c.Inertia(), dtype=float))
-    k = len(extra_points)
-    Ms = sp.diags_array(np.concatenate([diag, extra_mass])).tocsr()
-    for (cell, rho), conns in solids.items():
-        hexes = Mesh(run.points, {cell: np.array(conns)})
-        Ms = Ms + sp.block_diag([mass_matrix(hexes, rho), sp.csr_array((k, k))]).tocsr()
-    notes = [f"mass assembled from {', '.join(f'{v} {t}' for t, v in run.element_types.items())}"
-             + (f"; {k} CONM2 with an offset CG as nodes moving rigidly with their grid" if k else "")]
-    return AssembledMass(sp.csr_array(Ms), np.concatenate([J, np.array(extra_J).reshape(k, 3, 3)]),
-                         np.array(extra_points).reshape(k, 3), np.array(extra_of, dtype=np.int64), notes)
+            extra.append((cg, i, c.mass, inertia))
+    return extra
 
 
 def _hexa(path, e, nodes: list[int], solids: dict) -> None:

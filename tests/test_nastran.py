@@ -117,6 +117,50 @@ def test_a_body_from_a_run_is_written_read_and_reported(tmp_path):
     assert "no solid cells to draw" in (tmp_path / "n.html").read_text()
 
 
+def _write_op2(body, path) -> None:
+    """The body as Nastran would write a free-free SOL 103 run of it, with pyNastran's OP2 writer: GRID, CHEXA
+    (20 nodes), PSOLID, MAT1 with rho; six rigid modes then its modes, float32, mass-normalised."""
+    from cpylog import SimpleLogger
+    from pyNastran.op2.op2_geom import OP2Geom
+    from pyNastran.op2.tables.oug.oug_eigenvectors import RealEigenvectorArray
+
+    from ffrf_advisor.fe.modal import rigid_modes
+
+    fe, n = body.fe, body.fe.mesh.n_nodes
+    model = OP2Geom(log=SimpleLogger(level="critical"))
+    model.set_mode("msc")
+    for i, x in enumerate(fe.mesh.points):
+        model.add_grid(i + 1, x)
+    model.add_mat1(1, fe.material.E, None, fe.material.nu, rho=fe.material.rho)
+    model.add_psolid(1, 1)
+    for e, conn in enumerate(fe.mesh.cells["hexahedron20"]):
+        nastran_order = np.empty(20, int)
+        nastran_order[nastran.HEX20] = conn + 1  # the reader's map, inverted
+        model.add_chexa(e + 1, 1, nastran_order.tolist())
+    T = np.concatenate([rigid_modes(fe.mesh.points).reshape(n, 3, 6), fe.Phi], axis=2)
+    data = np.zeros((T.shape[2], n, 6), np.float32)
+    data[:, :, :3] = np.moveaxis(T, 2, 0)
+    lam = np.r_[np.zeros(6), body.eigenvalues]
+    ev = RealEigenvectorArray.add_modal_case("OUGV1", np.column_stack([np.arange(1, n + 1), np.ones(n, int)]), data,
+                                             1, np.arange(1, len(lam) + 1), lam, np.sqrt(lam) / (2 * np.pi))
+    ev.table_code, ev.device_code, ev.approach_code = 7, 1, 21  # eigenvectors, as Nastran writes them
+    model.eigenvectors[1] = ev
+    model.write_op2(str(path), post=-1, endian=b"<")
+
+
+def test_a_sample_written_as_op2_by_pynastran_reads_back_with_its_invariants_and_advice(tmp_path):
+    body = replace(read_body(SAMPLE, load_fe=True), geometric=None, static_centrifugal=None)
+    path = tmp_path / "beam.op2"
+    _write_op2(body, path)
+    back = read_body(path)
+    assert any("CHEXA" in note and "80" in note for note in back.provenance.notes)
+    assert np.allclose(back.I0, body.I0, rtol=1e-6) and np.allclose(back.eigenvalues, body.eigenvalues, rtol=1e-6)
+    assert np.allclose(np.abs(back.W1), np.abs(body.W1), atol=1e-6 * np.abs(body.W1).max())  # float32 modes
+    assert np.allclose(back.integrals.modal_mass(), np.eye(body.nf), atol=1e-6)
+    options = Options(situation=Situation(w_op=300.0))
+    assert analyze(back, options).advice.terms == analyze(body, options).advice.terms
+
+
 def test_an_offset_point_mass_moves_rigidly_with_its_grid():
     run = nastran.NastranModes(np.array([1]), np.zeros((1, 3)), np.array([1.0]), np.array([1.0]),
                                np.zeros((1, 3, 1)), np.array([[[0.0], [0.0], [0.01]]]), None, {})

@@ -294,7 +294,8 @@ def body_of(path, run: NastranModes, mass: AssembledMass) -> FlexibleBody:
     share = rotary_share(run, mass)[flex]
     notes = [f"Nastran {os.path.basename(str(path))}: {len(run.eigenvalues)} modes, six rigid dropped; "
              "units assumed t-mm-N-s", *mass.notes,
-             f"rotary inertia carries up to {share.max():.1%} of a mode's modal mass (mode {share.argmax() + 1})",
+             *([f"rotary inertia carries up to {share.max():.1%} of a mode's modal mass (mode {share.argmax() + 1})"]
+               if share.max() > 0 else []),
              f"modes scaled by Nastran's generalised masses; the assembled mass gives them within "
              f"{np.abs(error).max():.2g}" + ("" if np.abs(error).max() <= GENMASS_TOL else
                                             " (warning: more than float32 round-off: Nastran's mass differs)")]

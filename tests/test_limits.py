@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
 from ffrf_advisor.errors import BodyFileError
-from ffrf_advisor.io import guard, limits
+from ffrf_advisor.io import ffrf_h5, guard, limits
 
 ROOT = Path(__file__).resolve().parents[1]
 BEAM = ROOT / "sample_bodies" / "beam.ffrf.h5"
@@ -194,3 +194,19 @@ def test_numbers_whose_products_overflow_are_refused_on_reading(tmp_path):
 
     path = _edited_beam(tmp_path, "big.ffrf.h5", edit)
     _one_line_exit_2(["analyze", path, "--speed", "300rad/s"], "static_centrifugal compliance", "below 1e+150")
+
+
+def test_the_parent_accepts_only_the_types_of_the_body_model_from_the_child(tmp_path):
+    path = tmp_path / "x.h5"
+    path.write_bytes(b"0")
+    with pytest.raises(BodyFileError, match=r"outside the body model \(posix.system is not a type"):
+        guard.run(path, "lib", lambda: os.system)  # what a subverted child would send to run a command
+    with pytest.raises(RuntimeError, match="error: a foreign library's exception"):
+        guard.run(path, "lib", _foreign_error)  # travels as its text
+    body = guard.run(BEAM, "the HDF5 library", ffrf_h5._read_file, BEAM, True)  # a whole body passes
+    assert body.fe is not None and body.nf == 16
+
+
+def _foreign_error():
+    import struct
+    raise struct.error("a foreign library's exception")

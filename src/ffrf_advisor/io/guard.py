@@ -4,15 +4,20 @@ The HDF5 C library can crash (segfault) or loop forever on files with
 damaged metadata, and meshio allocates what a file declares; none of this
 can be caught in Python. ``run`` forks a child that parses the file and
 sends the result (or the exception it raised) back through a pipe, so the
-file is read once. The child is bounded on its own: it dies with its
+file is read once. The parent unpickles it with an allow-list (``_Unpickler``):
+only the classes of the body model and the arrays, matrices and exceptions
+they are made of, so a child subverted by a hostile file cannot make the
+parent run anything. The child is bounded on its own: it dies with its
 parent (PR_SET_PDEATHSIG), by an alarm at the deadline, and its address
 space is limited to what it had plus the memory limit (``limits``). The
 parent kills and reaps it on every path out (error, Ctrl-C, SIGTERM).
 """
 from __future__ import annotations
 
+import builtins
 import ctypes
 import faulthandler
+import io
 import os
 import pickle
 import resource
@@ -59,10 +64,48 @@ def run(path, what: str, fn, *args):
             _kill(pid)
     if not data:
         raise BodyFileError(path, "file", f"a file {what} can read", f"{what} {_failure(path, seconds, status)}")
-    ok, value = pickle.loads(data)
+    try:
+        ok, value = _Unpickler(io.BytesIO(data)).load()
+    except (pickle.UnpicklingError, ValueError, TypeError, EOFError) as e:
+        raise BodyFileError(path, "file", f"a file {what} can read",
+                            f"the reading child sent back something outside the body model ({e})") from None
     if ok:
         return value
     raise value
+
+
+# What the parent accepts from the child: classes of these packages (no functions) ...
+TRUSTED_PACKAGES = ("ffrf_advisor", "meshio", "scipy.sparse", "numpy.dtypes")
+# ... and these names: how numpy arrays, dtypes and scalars, fractions and objects are rebuilt.
+TRUSTED_NAMES = {(m, n) for m in ("numpy._core.multiarray", "numpy.core.multiarray") for n in ("_reconstruct", "scalar")} | \
+    {(m, "_frombuffer") for m in ("numpy._core.numeric", "numpy.core.numeric")} | \
+    {("numpy", "dtype"), ("numpy", "ndarray"), ("fractions", "Fraction"), ("collections", "OrderedDict"),
+     ("copyreg", "_reconstructor"), ("copyreg", "__newobj__")}
+SAFE_BUILTINS = {"object", "dict", "list", "tuple", "set", "frozenset", "int", "float", "complex", "str", "bytes",
+                 "bytearray", "bool", "slice", "range"}
+
+
+class _Unpickler(pickle.Unpickler):
+    """Unpickles only the allow-list above and the exceptions of builtins and of this package."""
+
+    def find_class(self, module: str, name: str):
+        if (module, name) in TRUSTED_NAMES:
+            return super().find_class(module, name)
+        if module == "builtins":
+            obj = getattr(builtins, name, None)
+            if isinstance(obj, type) and (name in SAFE_BUILTINS or issubclass(obj, BaseException)):
+                return obj
+        elif module.split(".")[0] in ("ffrf_advisor", "meshio") or module.startswith(TRUSTED_PACKAGES):
+            obj = super().find_class(module, name)
+            if isinstance(obj, type):
+                return obj
+        raise pickle.UnpicklingError(f"{module}.{name} is not a type of the body model")
+
+
+def _transportable(e: BaseException) -> BaseException:
+    """The exception itself when the parent accepts its class (builtins, this package), else its text."""
+    module = type(e).__module__
+    return e if module == "builtins" or module.startswith("ffrf_advisor") else RuntimeError(f"{type(e).__name__}: {e}")
 
 
 def _child(fd: int, seconds: float, limit: int, fn, args) -> None:
@@ -74,7 +117,7 @@ def _child(fd: int, seconds: float, limit: int, fn, args) -> None:
         except MemoryError:
             message = (False, MemoryError(f"needed more than the memory limit of {human(limit)}"))
         except BaseException as e:  # noqa: BLE001 - the parent re-raises it
-            message = (False, e)
+            message = (False, _transportable(e))
         try:
             data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
         except Exception as e:  # noqa: BLE001 - an exception that does not pickle travels as its text

@@ -13,6 +13,7 @@ from .analysis import Options, analyze
 from .errors import FFRFError
 from .guidelines import LEVELS
 from .io import check_reader_options, read_body
+from .io.atomic import refuse_inputs
 from .report.json_out import analysis_json
 
 PROGRESS_FROM = 5  # show a progress bar from this many bodies on
@@ -62,8 +63,7 @@ def check_junit_target(path: Path, inputs: list[Path], force: bool) -> None:
     """The JUnit report never replaces a body of the same run, and replaces another file only when it is a
     JUnit report already or with --force."""
     target = Path(path)
-    if any(target.exists() and Path(i).exists() and target.samefile(i) for i in inputs):
-        raise FFRFError(f"{target}: --junit names a body of this run; refusing to overwrite it")
+    refuse_inputs(target, inputs, "--junit names a body of this run; refusing to overwrite it")
     if target.is_file() and not force and not _is_junit(target):
         raise FFRFError(f"{target}: exists and is not a JUnit report; refusing to overwrite (use --force)")
 

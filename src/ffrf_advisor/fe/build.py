@@ -7,7 +7,6 @@ import numpy as np
 
 from ..adequacy import static_centrifugal
 from ..body import FlexibleBody, ModalFE, Provenance
-from ..invariants import shape_integrals
 from ..units import TMM, Units
 from .assembly import full_mass, mass_matrix, stiffness_matrix
 from .material import Material
@@ -50,14 +49,15 @@ def fe_body(name: str, mesh: Mesh, Ms, Phi: np.ndarray, eigenvalues: np.ndarray,
             K=None, stress: np.ndarray | None = None, material: Material | None = None,
             units: Units = TMM) -> FlexibleBody:
     """The body of mass-normalised modes on ``mesh`` (in ``units``), in its CoM principal frame."""
+    fe = ModalFE(mesh, Ms, Phi, K, stress, material)
     body = FlexibleBody(
         name=name,
-        integrals=shape_integrals(mesh.points, Ms, Phi),
+        integrals=fe.integrals(),
         eigenvalues=eigenvalues,
         units=units,
         sigma_max=None if stress is None else stress.max(axis=0),
         provenance=provenance,
-        fe=ModalFE(mesh, Ms, Phi, K, stress, material),
+        fe=fe,
     )
     return body.in_principal_frame()[0]
 

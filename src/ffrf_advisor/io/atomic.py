@@ -17,6 +17,13 @@ from typing import Iterator
 from ..errors import FFRFError
 
 
+def refuse_inputs(target, inputs, message: str) -> None:
+    """FFRFError ``TARGET: message`` when ``target`` is one of ``inputs`` (the same file, links included)."""
+    target = Path(target)
+    if any(target.exists() and Path(i).exists() and target.samefile(i) for i in inputs):
+        raise FFRFError(f"{target}: {message}")
+
+
 @contextmanager
 def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
     """Yield a temporary path; on success it replaces ``target``, on failure it is removed."""

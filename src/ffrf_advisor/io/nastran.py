@@ -19,6 +19,7 @@ import contextlib
 import io
 import os
 import warnings
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
@@ -111,14 +112,7 @@ def _modes(path, m) -> NastranModes:
     points, data = _to_basic(path, m, gids, data)
     return NastranModes(gids, points, lam, genmass, np.moveaxis(data[:, :, :3], 0, 2),
                         np.moveaxis(data[:, :, 3:], 0, 2), _stress_max(m, len(lam)),
-                        dict(sorted(_count(e.type for e in (*m.elements.values(), *m.masses.values())).items())))
-
-
-def _count(types) -> dict[str, int]:
-    out: dict[str, int] = {}
-    for t in types:
-        out[t] = out.get(t, 0) + 1
-    return out
+                        dict(sorted(Counter(e.type for e in (*m.elements.values(), *m.masses.values())).items())))
 
 
 def _to_basic(path, m, gids: np.ndarray, data: np.ndarray):

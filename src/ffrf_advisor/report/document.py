@@ -78,9 +78,9 @@ def header(a: Analysis, source: str) -> Section:
     return Section(f"Body: {b.name}", blocks)
 
 
-def options_section(a: Analysis) -> Section:
-    """Every option and threshold the advice used (theory section 8)."""
-    d = analysis_json(a, "")["situation"]
+def options_section(a: Analysis, d: dict) -> Section:
+    """Every option and threshold the advice used (theory section 8); ``d`` is the analysis JSON."""
+    d = d["situation"]
     amp = a.options.amplitudes
     u = a.body.units
     fields = [("speed w_op", _num(d["speed_rad_s"], "rad/s")), ("f_sys", _num(d["f_sys_hz"], "Hz")),
@@ -93,9 +93,9 @@ def options_section(a: Analysis) -> Section:
     return Section("Options and thresholds", [("fields", fields)])
 
 
-def verdict(a: Analysis, source: str) -> Section:
-    """Level, term set, Lagrangian or not, the evidence per rule, every warning, softening, basis, solver."""
-    d = analysis_json(a, source)
+def verdict(a: Analysis, d: dict) -> Section:
+    """Level, term set, Lagrangian or not, the evidence per rule, every warning, softening, basis, solver; ``d`` is
+    the analysis JSON (report.json_out)."""
     sig = d["significance"]
     fields = [("level", d["level"]), ("terms", ", ".join(d["terms"])),
               ("Lagrangian", "yes" if d["lagrangian"] else "no")]
@@ -190,7 +190,8 @@ def verification_section(study: dict) -> Section:
 
 def body_sections(a: Analysis, source: str, study: dict | None = None, figures: bool = True) -> list[Section]:
     """One body's part; ``figures=False`` in a set, whose comparison already draws every body's series."""
-    sections = [verdict(a, source), header(a, source), options_section(a), paper_tables([a])]
+    d = analysis_json(a, source)
+    sections = [verdict(a, d), header(a, source), options_section(a, d), paper_tables([a])]
     sections += [paper_figures([a]), pictures(a)] if figures else [pictures(a)]
     if study is not None:
         sections.append(verification_section(study))

@@ -4,7 +4,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import FFRFError
-from ..io.atomic import atomic_path
+from ..io.atomic import atomic_path, refuse_inputs
 from . import html, pdf
 from .document import Document
 
@@ -15,8 +15,7 @@ def check_target(path: Path, inputs: list[Path]) -> None:
     """A report goes to .html/.htm/.pdf, never onto one of its own inputs."""
     if path.suffix.lower() not in SUFFIXES:
         raise FFRFError(f"{path}: expected a report file ending in {', '.join(SUFFIXES)}")
-    if any(path.resolve() == p.resolve() for p in inputs if p.exists()):
-        raise FFRFError(f"{path}: is an input of this run; refusing to write the report over it")
+    refuse_inputs(path, inputs, "is an input of this run; refusing to write the report over it")
 
 
 def write(doc: Document, path: Path, overwrite: bool) -> None:

@@ -40,16 +40,23 @@ def to_section1_form(X: np.ndarray, Ms: sp.sparray, K: sp.sparray, Psi: np.ndarr
     c = (one @ (Ms @ X)) / mass
     Xc = X - c
     R = principal_axes(I0(Xc.T @ (Ms @ Xc)))
-    rigid = rigid_modes(Xc)
+    lam, S, dropped = free_surface_ritz(M, K, Psi, rigid_modes(Xc))
+    S = mass_normalised(S, M, Xc)
+    n, nf = len(X), S.shape[1]
+    Phi = np.einsum("ak,iap->ikp", R, S.reshape(n, 3, nf))
+    return BasisTransform(lam, Phi, Xc @ R, c, R, dropped)
+
+
+def free_surface_ritz(M: sp.sparray, K: sp.sparray, Psi: np.ndarray, rigid: np.ndarray) \
+        -> tuple[np.ndarray, np.ndarray, int]:
+    """Theory 4 on any DOF layout: Psi M-orthogonalised against the ``rigid`` modes, the dependent vectors
+    dropped, the reduced eigenproblem solved. Eigenvalues, M-orthonormal Ritz vectors and the number dropped."""
     P = without_rigid(Psi, rigid, M)
     Mr = P.T @ (M @ P)
     Kr = P.T @ (K @ P)
     d, V = np.linalg.eigh(0.5 * (Mr + Mr.T))
     keep = d > RANK_TOL * d.max()
     T = V[:, keep] / np.sqrt(d[keep])
-    lam, Z = sla.eigh(T.T @ Kr @ T)
-    lam = np.asarray(lam)
-    S = mass_normalised(P @ (T @ Z), M, Xc)
-    n, nf = len(X), S.shape[1]
-    Phi = np.einsum("ak,iap->ikp", R, S.reshape(n, 3, nf))
-    return BasisTransform(lam, Phi, Xc @ R, c, R, int(Psi.shape[1] - nf))
+    A = T.T @ Kr @ T
+    lam, Z = sla.eigh(0.5 * (A + A.T))
+    return np.asarray(lam), P @ (T @ Z), int(Psi.shape[1] - keep.sum())

@@ -97,7 +97,12 @@ SIGN_MIN = 1e-6  # |g^T M phi| / |g|_M below which a field does not decide a mod
 
 
 def signed_modes(S: np.ndarray, M: sp.sparray, X: np.ndarray) -> np.ndarray:
-    """Columns of S signed so that ``g^T M s > 0`` for the first reference field g that decides them.
+    """Columns of S (3n x k) times ``mode_signs``."""
+    return S * mode_signs(S, M, X)
+
+
+def mode_signs(S: np.ndarray, M: sp.sparray, X: np.ndarray) -> np.ndarray:
+    """Per column of S, the sign +-1 that makes ``g^T M s > 0`` for the first reference field g that decides it.
 
     A sign rule that two machines agree on: the correlation with a smooth
     field without symmetry is a robust, well-separated number, unlike
@@ -112,10 +117,10 @@ def signed_modes(S: np.ndarray, M: sp.sparray, X: np.ndarray) -> np.ndarray:
     for a, b in SIGN_FIELDS:
         g = np.cos(2 * np.pi * xi @ a.T + b).reshape(-1)
         Mg = M @ g
-        c = (Mg @ S) / (np.sqrt(g @ Mg) * norms)
+        c = np.divide(Mg @ S, np.sqrt(g @ Mg) * norms, out=np.zeros(len(norms)), where=norms > 0)
         undecided = sign == 0
         sign[undecided & (np.abs(c) > SIGN_MIN)] = np.sign(c[undecided & (np.abs(c) > SIGN_MIN)])
-    return S * np.where(sign == 0, 1.0, sign)
+    return np.where(sign == 0, 1.0, sign)
 
 
 def _rayleigh_scale(K: sp.sparray, M: sp.sparray) -> float:

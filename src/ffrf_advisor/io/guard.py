@@ -35,18 +35,19 @@ FORK = hasattr(os, "fork")  # tests that spy on the parser in-process set this F
 PR_SET_PDEATHSIG = 1
 
 
-def deadline_seconds(path) -> float:
-    return BASE_SECONDS + os.path.getsize(path) * SECONDS_PER_BYTE
+def deadline_seconds(path, extra_bytes: int = 0) -> float:
+    return BASE_SECONDS + (os.path.getsize(path) + extra_bytes) * SECONDS_PER_BYTE
 
 
-def run(path, what: str, fn, *args):
+def run(path, what: str, fn, *args, extra_bytes: int = 0):
     """``fn(*args)`` parsed in a child; its result, or its exception re-raised here.
 
-    ``what`` names the library for the messages ("the HDF5 library", "meshio").
+    ``what`` names the library for the messages ("the HDF5 library", "meshio"); ``extra_bytes``, the size
+    of other files the child reads, extends its deadline.
     """
     if not FORK:
         return fn(*args)
-    seconds, limit = deadline_seconds(path), max_bytes()  # a bad limit is the parent's one-line error
+    seconds, limit = deadline_seconds(path, extra_bytes), max_bytes()  # a bad limit is the parent's one-line error
     read_end, write_end = os.pipe()
     pid = os.fork()
     if pid == 0:  # child: never returns into the caller's code

@@ -27,15 +27,18 @@ import scipy.sparse as sp
 
 from ..body import FlexibleBody, ModalFE, NodalRotary, Provenance
 from ..errors import BodyFileError, FFRFError
-from ..fe.assembly import mass_matrix
+from ..fe.assembly import full_mass, mass_matrix
+from ..fe.modal import mode_signs
 from ..fe.mesh import Mesh
-from . import Format, guard, register
+from . import Format, guard, nastran_dmig, register
+from ..transform import free_surface_ritz
 from .limits import check_file_size
 
-RIGID_TOL = 1e-6   # |lambda| / largest |lambda| below which a mode is rigid ...
+RIGID_TOL = 1e-10  # |lambda| / largest |lambda| below which a mode is rigid (a frequency ratio of 1e-5) ...
 RIGID_HZ = 1e-2    # ... or a frequency below this (a run whose modes are all ~0)
 N_RIGID = 6
 GENMASS_TOL = 1e-4  # assembled against Nastran's generalised masses: float32 modes reach ~1e-7
+FREE_K_TOL = 1e-6  # |K r| / |K| |r| of a free body's K: round-off of the punch's 16-digit fields, summed
 LINES = ("CBAR", "CBEAM", "CROD", "CONROD", "CTUBE")
 SHELLS = ("CQUAD4", "CQUADR", "CQUAD8", "CTRIA3", "CTRIAR", "CTRIA6")
 MASSLESS = ("CELAS1", "CELAS2", "CELAS3", "CELAS4", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CVISC", "CBUSH",
@@ -80,19 +83,28 @@ def _load(path):
                             f"{type(e).__name__}: {' '.join(str(e).split())[:160]}") from None
 
 
-def parse(path, free_free: bool = False) -> tuple[NastranModes, "AssembledMass"]:
-    """The run of ``path`` and its assembled mass, parsed in a guarded child (io.guard); with ``free_free``
-    a run without exactly six rigid-body modes is refused before its elements are looked at."""
+def parse(path, free_free: bool = False) -> tuple[NastranModes, "NodalMass", nastran_dmig.Matrices | None]:
+    """The run of ``path``, its nodal mass and the matrices punched beside it, parsed in a guarded child
+    (io.guard); with ``free_free`` a run that is not free-free and cannot be transformed (no MAAX and KAAX)
+    is refused before its elements are looked at."""
     check_file_size(path, 8)
-    return guard.run(path, "pyNastran", _parse_and_assemble, path, free_free)
+    pch = nastran_dmig.beside(path)
+    return guard.run(path, "pyNastran", _parse_and_assemble, path, pch, free_free,
+                     extra_bytes=0 if pch is None else os.path.getsize(pch))
 
 
-def _parse_and_assemble(path, free_free: bool):
+def _parse_and_assemble(path, pch: str | None, free_free: bool):
     m = _load(path)
     run = _modes(path, m)
+    mats = None if pch is None else nastran_dmig.read(pch, run.grids, _frames(path, m, run.grids))
     if free_free:
-        _require_free_free(path, run.eigenvalues)
-    return run, assembled_mass(path, m, run)
+        _require_free_free(path, run.eigenvalues, mats)
+    if mats is None or mats.M is None:
+        return run, assembled_mass(path, m, run), mats
+    Ms, J = nastran_dmig.nodal_form(mats.M)
+    return run, NodalMass(Ms, J, np.zeros((0, 3)), np.zeros(0, np.int64),
+                          [f"mass from DMIG {nastran_dmig.MASS} of {os.path.basename(pch)}"],
+                          f"the nodal form of {nastran_dmig.MASS}"), mats
 
 
 def _modes(path, m) -> NastranModes:
@@ -116,12 +128,20 @@ def _modes(path, m) -> NastranModes:
 
 
 def _to_basic(path, m, gids: np.ndarray, data: np.ndarray):
-    """Grid positions in basic and mode components turned from each grid's CD frame to basic."""
+    """Grid positions in basic and mode components (nm, n, 6) turned from each grid's CD frame to basic."""
     missing = [g for g in gids if g not in m.nodes]
     if missing:
         raise BodyFileError(path, "geometry", "every grid of the modes in the OP2 geometry", f"grid {missing[0]}")
     points = np.array([m.nodes[g].get_position() for g in gids])
-    out = data.copy()
+    F = _frames(path, m, gids)
+    out = np.concatenate([np.einsum("kab,pkb->pka", F, data[:, :, part]) for part in (slice(0, 3), slice(3, 6))],
+                         axis=2)
+    return points, out
+
+
+def _frames(path, m, gids: np.ndarray) -> np.ndarray:
+    """Per grid, the matrix F (3 x 3) of its CD frame: a vector in basic is F times its CD components."""
+    F = np.tile(np.eye(3), (len(gids), 1, 1))
     for k, g in enumerate(gids):
         cd = m.nodes[g].cd
         if cd in (0, -1):
@@ -130,9 +150,8 @@ def _to_basic(path, m, gids: np.ndarray, data: np.ndarray):
         if coord.type not in ("CORD1R", "CORD2R"):
             raise BodyFileError(path, f"grid {g} CD", "a rectangular output frame (or PARAM,OUGCORD,BASIC)",
                                 f"{coord.type} {cd}")
-        for part in (slice(0, 3), slice(3, 6)):
-            out[:, k, part] = coord.transform_vector_to_global(data[:, k, part])
-    return points, out
+        F[k] = np.asarray(coord.transform_vector_to_global(np.eye(3)), dtype=float).T
+    return F
 
 
 def _stress_max(m, nm: int) -> np.ndarray | None:
@@ -153,7 +172,7 @@ def _stress_max(m, nm: int) -> np.ndarray | None:
 
 # ---------------------------------------------------------------- mass (theory 3b)
 @dataclass
-class AssembledMass:
+class NodalMass:
     """Scalar translational mass over the grids (+ offset CG nodes), nodal rotary inertia, extra nodes."""
 
     Ms: sp.csr_array
@@ -161,9 +180,10 @@ class AssembledMass:
     extra_points: np.ndarray      # (k, 3) CG of offset CONM2s
     extra_of: np.ndarray          # (k,) the grid index each moves with
     notes: list[str]
+    what: str = "the assembled mass"
 
 
-def assembled_mass(path, m, run: NastranModes) -> AssembledMass:
+def assembled_mass(path, m, run: NastranModes) -> NodalMass:
     """The mass of the elements and point masses of ``m`` over the grids of ``run`` (theory 3b)."""
     index = {int(g): i for i, g in enumerate(run.grids)}
     n = len(run.grids)
@@ -177,7 +197,7 @@ def assembled_mass(path, m, run: NastranModes) -> AssembledMass:
         Ms = Ms + sp.block_diag([mass_matrix(hexes, rho), sp.csr_array((k, k))]).tocsr()
     notes = [f"mass assembled from {', '.join(f'{v} {t}' for t, v in run.element_types.items())}"
              + (f"; {k} CONM2 with an offset CG as nodes moving rigidly with their grid" if k else "")]
-    return AssembledMass(sp.csr_array(Ms), np.concatenate([J, np.array([e[3] for e in extra]).reshape(k, 3, 3)]),
+    return NodalMass(sp.csr_array(Ms), np.concatenate([J, np.array([e[3] for e in extra]).reshape(k, 3, 3)]),
                          np.array([e[0] for e in extra]).reshape(k, 3), np.array([e[1] for e in extra], np.int64),
                          notes)
 
@@ -232,7 +252,7 @@ def _hexa(path, e, nodes: list[int], solids: dict) -> None:
 
 
 # ---------------------------------------------------------------- the body
-def modes_with_extra_nodes(run: NastranModes, mass: AssembledMass) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def modes_with_extra_nodes(run: NastranModes, mass: NodalMass) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points, translations and rotations with the offset-CG nodes appended: u = u_g + theta_g x (x - x_g)."""
     g = mass.extra_of
     arm = mass.extra_points - run.points[g]
@@ -240,7 +260,7 @@ def modes_with_extra_nodes(run: NastranModes, mass: AssembledMass) -> tuple[np.n
     return np.concatenate([run.points, mass.extra_points]), T, np.concatenate([run.R, run.R[g]])
 
 
-def modal_mass_parts(run: NastranModes, mass: AssembledMass) -> tuple[np.ndarray, np.ndarray]:
+def modal_mass_parts(run: NastranModes, mass: NodalMass) -> tuple[np.ndarray, np.ndarray]:
     """Per mode of the file, the translational sum Phi^T Ms Phi and the rotary sum Phi*^T J Phi* (theory 3b)."""
     _, T, R = modes_with_extra_nodes(run, mass)
     n, _, nm = T.shape
@@ -248,13 +268,13 @@ def modal_mass_parts(run: NastranModes, mass: AssembledMass) -> tuple[np.ndarray
     return trans, np.einsum("iap,iab,ibp->p", R, mass.J, R)
 
 
-def generalized_mass_error(run: NastranModes, mass: AssembledMass) -> np.ndarray:
+def generalized_mass_error(run: NastranModes, mass: NodalMass) -> np.ndarray:
     """Per mode, (assembled modal mass) / (Nastran's generalised mass) - 1."""
     trans, rot = modal_mass_parts(run, mass)
     return (trans + rot) / run.generalized_mass - 1
 
 
-def rotary_share(run: NastranModes, mass: AssembledMass) -> np.ndarray:
+def rotary_share(run: NastranModes, mass: NodalMass) -> np.ndarray:
     """Per mode, the share of the modal mass that is rotary inertia (1 for a pure torsion of beam nodes)."""
     trans, rot = modal_mass_parts(run, mass)
     return np.divide(rot, trans + rot, out=np.zeros_like(rot), where=trans + rot > 0)
@@ -264,13 +284,15 @@ def rigid(lam: np.ndarray) -> np.ndarray:
     return (np.abs(lam) < RIGID_TOL * np.abs(lam).max()) | (np.sqrt(np.abs(lam)) / (2 * np.pi) < RIGID_HZ)
 
 
-def _require_free_free(path, lam: np.ndarray) -> None:
+def _require_free_free(path, lam: np.ndarray, mats: nastran_dmig.Matrices | None) -> None:
     count = int(rigid(lam).sum())
-    if count != N_RIGID:
-        why = ("the run is constrained (SPCs or a grounded model): rerun SOL 103 without constraints"
-               if count < N_RIGID else "the model is not connected (a mechanism)")
-        raise BodyFileError(path, "eigenvalues", "a free-free run with six rigid-body modes (theory section 1)",
-                            f"{count} of {len(lam)} modes below {RIGID_HZ:g} Hz: {why}")
+    if count == N_RIGID or (mats is not None and mats.M is not None and mats.K is not None):
+        return
+    why = ("the run is constrained (SPCs or a grounded model): rerun SOL 103 without constraints"
+           if count < N_RIGID else "the model is not connected (a mechanism)")
+    raise BodyFileError(path, "eigenvalues", "a free-free run with six rigid-body modes (theory section 1), or "
+                        "the free body's MAAX and KAAX beside it (PARAM,EXTOUT,DMIGPCH) to transform the basis",
+                        f"{count} of {len(lam)} modes below {RIGID_HZ:g} Hz: {why}")
 
 
 def read(path, load_fe: bool = False) -> FlexibleBody:
@@ -278,30 +300,91 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     return body_of(path, *parse(path, free_free=True))
 
 
-def body_of(path, run: NastranModes, mass: AssembledMass) -> FlexibleBody:
-    """The body of a free-free run: rigid modes dropped, modes scaled by the generalised masses, the rotary
-    nodes (theory 3b) kept apart, in the CoM principal frame."""
+def body_of(path, run: NastranModes, mass: NodalMass, mats: nastran_dmig.Matrices | None = None) -> FlexibleBody:
+    """The body of a run: brought to free-free form when it is not (theory 4), rigid modes dropped, modes
+    scaled by the generalised masses, the rotary nodes (theory 3b) kept apart, in the CoM principal frame."""
+    notes = [f"Nastran {os.path.basename(str(path))}: {len(run.eigenvalues)} modes; units assumed t-mm-N-s",
+             *mass.notes]
+    if int(rigid(run.eigenvalues).sum()) != N_RIGID:
+        run, note = free_surface_run(path, run, mass, mats)
+        notes.append(note)
     flex = ~rigid(run.eigenvalues)
     points, T, R = modes_with_extra_nodes(run, mass)
     scale = 1 / np.sqrt(run.generalized_mass[flex])
-    error = generalized_mass_error(run, mass)[flex]
-    share = rotary_share(run, mass)[flex]
-    notes = [f"Nastran {os.path.basename(str(path))}: {len(run.eigenvalues)} modes, six rigid dropped; "
-             "units assumed t-mm-N-s", *mass.notes,
-             *([f"rotary inertia carries up to {share.max():.1%} of a mode's modal mass (mode {share.argmax() + 1})"]
-               if share.max() > 0 else []),
-             f"modes scaled by Nastran's generalised masses; the assembled mass gives them within "
-             f"{np.abs(error).max():.2g}" + ("" if np.abs(error).max() <= GENMASS_TOL else
-                                            " (warning: more than float32 round-off: Nastran's mass differs)")]
+    notes += _mass_notes(run, mass, flex)
+    if mats is not None:
+        notes += _matrix_notes(run, flex, scale, mats)
     has_rotary = np.abs(mass.J).max(axis=(1, 2)) > 0
     rotary = NodalRotary(np.flatnonzero(has_rotary), mass.J[has_rotary], R[has_rotary][:, :, flex] * scale)
     fe = ModalFE(Mesh(points, {}), mass.Ms, T[:, :, flex] * scale, rotary=rotary if has_rotary.any() else None)
     sigma = None if run.sigma_max is None else run.sigma_max[flex] * scale
+    off_diagonal = sp.csr_array(mass.Ms - sp.diags_array(mass.Ms.diagonal())).count_nonzero()
+    kind = "lumped" if off_diagonal == 0 else "consistent" if mats is not None and mats.M is not None else "unknown"
     body = FlexibleBody(name=os.path.basename(str(path)).split(".")[0], integrals=fe.integrals(),
                         eigenvalues=run.eigenvalues[flex], sigma_max=sigma, fe=fe,
-                        provenance=Provenance(source=str(path), mass_matrix="lumped" if "CHEXA" not in
-                                              run.element_types else "unknown", notes=tuple(notes), digits=7))
+                        provenance=Provenance(source=str(path), mass_matrix=kind, notes=tuple(notes), digits=7))
     return body.in_principal_frame()[0]
+
+
+def _mass_notes(run: NastranModes, mass: NodalMass, flex: np.ndarray) -> list[str]:
+    """The rotary share and how well the nodal mass gives the generalised masses the modes are scaled by."""
+    error = np.abs(generalized_mass_error(run, mass)[flex]).max()
+    share = rotary_share(run, mass)[flex]
+    return [*([f"rotary inertia carries up to {share.max():.1%} of a mode's modal mass (mode {share.argmax() + 1})"]
+              if share.max() > 0 else []),
+            f"six rigid modes dropped, the others scaled by their generalised masses; {mass.what} gives them "
+            f"within {error:.2g}"
+            + ("" if error <= GENMASS_TOL else " (warning: more than float32 round-off: Nastran's mass differs, "
+                                               "or the body model cannot hold all of it, theory 3b)")]
+
+
+def _matrix_notes(run: NastranModes, flex: np.ndarray, scale: np.ndarray, mats: nastran_dmig.Matrices) -> list[str]:
+    """Checks of the run against the punched MAAX and KAAX (theory 3b, 4)."""
+    V = nastran_dmig.six_dof(run.T, run.R)[:, flex] * scale
+    notes = []
+    if mats.M is not None:
+        full = np.abs(np.einsum("ip,ip->p", V, mats.M @ V) - 1).max()
+        loss = nastran_dmig.rigid_mass_loss(mats.M, run.points)
+        notes.append(f"{nastran_dmig.MASS} gives the generalised masses within {full:.2g}; its nodal form keeps "
+                     f"its rigid-body mass within {loss:.2g}"
+                     + ("" if loss <= GENMASS_TOL else " (warning: it couples DOFs the body model does not hold: "
+                                                       "consistent beam or offset masses, theory 3b)"))
+    if mats.K is not None:
+        rayleigh = np.einsum("ip,ip->p", V, mats.K @ V)
+        lam = run.eigenvalues[flex]
+        notes.append(f"{nastran_dmig.STIFFNESS} gives the eigenvalues within "
+                     f"{np.abs(rayleigh - lam).max() / np.abs(lam).max():.2g} (relative to the largest); "
+                     "the body keeps no K (it has rotations)")
+    return notes
+
+
+def free_surface_run(path, run: NastranModes, mass: NodalMass, mats: nastran_dmig.Matrices | None) \
+        -> tuple[NastranModes, str]:
+    """A run that is not free-free brought to the form of theory section 1 with the punched MAAX and KAAX:
+    its modes M-orthogonalised against the 6-DOF rigid modes, the reduced eigenproblem solved (theory 4).
+    The result is six rigid modes and Ritz vectors of the free body, without modal stresses."""
+    if mats is None or mats.M is None or mats.K is None:
+        _require_free_free(path, run.eigenvalues, mats)
+    residual = nastran_dmig.free_body_residual(mats.K, run.points)
+    if residual > FREE_K_TOL:
+        raise BodyFileError(mats.source, f"DMIG {nastran_dmig.STIFFNESS}", "the stiffness of the free body "
+                            f"(|K r| / |K| |r| <= {FREE_K_TOL:g} for the rigid modes r)",
+                            f"{residual:.2g}: the matrices of a constrained run lack its constrained DOFs")
+    n, nm = len(run.grids), len(run.eigenvalues)
+    lam, S, dropped = free_surface_ritz(mats.M, mats.K, nastran_dmig.six_dof(run.T, run.R),
+                                        nastran_dmig.rigid_modes_6(run.points))
+    S = S.reshape(n, 6, -1)
+    S = S * mode_signs(S[:, :3].reshape(3 * n, -1), full_mass(mass.Ms[:n, :n]), run.points)
+    rigid6 = nastran_dmig.rigid_modes_6(run.points).reshape(n, 6, 6)
+    k = len(lam)
+    out = NastranModes(run.grids, run.points, np.r_[np.zeros(N_RIGID), lam], np.ones(N_RIGID + k),
+                       np.concatenate([rigid6[:, :3], S[:, :3]], axis=2),
+                       np.concatenate([rigid6[:, 3:], S[:, 3:]], axis=2), None, run.element_types)
+    note = (f"not free-free ({int(rigid(run.eigenvalues).sum())} of {nm} modes rigid): the modes brought to the "
+            f"form of theory 4 with {nastran_dmig.MASS} and {nastran_dmig.STIFFNESS}: {k} Ritz vectors of the "
+            f"free body ({dropped} rigid or dependent dropped), as good as the run's modes span its modes; "
+            "no modal stresses (their combination needs stress tensors)")
+    return out, note
 
 
 register(Format("nastran", (".op2",), read))

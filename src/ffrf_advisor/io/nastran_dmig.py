@@ -1,0 +1,167 @@
+"""Mass and stiffness matrices punched by Nastran (``PARAM,EXTOUT,DMIGPCH``): DMIG ``MAAX`` and ``KAAX`` in
+``JOBNAME.pch`` beside ``JOBNAME.op2`` (theory 3b and 4).
+
+In the matrices here, DOF ``6 i + c`` is component c (T1-T3, R1-R3) of the run's grid i, in basic
+coordinates (Nastran punches them in each grid's CD frame). DOFs the punch does not list (MPC-dependent
+DOFs of the a-set) have no entries: their mass and stiffness are condensed into the others.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from ..errors import BodyFileError
+from .limits import check_file_size
+
+MASS, STIFFNESS = "MAAX", "KAAX"
+PUNCH_FACTOR = 8  # bytes of pyNastran's card objects per byte of punch (16-character fields, two lines a term)
+SUFFIXES = (".pch", ".PCH")
+
+
+@dataclass
+class Matrices:
+    """The punched matrices of a run over its grids (6n x 6n, basic); None where the punch has none."""
+
+    source: str
+    M: sp.csr_array | None
+    K: sp.csr_array | None
+
+
+def beside(path) -> str | None:
+    """The punch file Nastran writes beside ``path`` (same job name), if there is one."""
+    stem = os.path.splitext(str(path))[0]
+    return next((stem + s for s in SUFFIXES if os.path.isfile(stem + s)), None)
+
+
+def read(pch: str, grids: np.ndarray, frames: np.ndarray) -> Matrices:
+    """``MAAX`` and ``KAAX`` of the punch ``pch`` over ``grids``; ``frames[i]`` turns grid i's CD to basic."""
+    check_file_size(pch, PUNCH_FACTOR)
+    cards = _load(pch)
+    index = {int(g): i for i, g in enumerate(grids)}
+    T = _frame_matrix(frames)
+    M, K = (None if name not in cards else _matrix(pch, name, cards[name], index, T) for name in (MASS, STIFFNESS))
+    if M is None and K is None:
+        raise BodyFileError(pch, "DMIG", f"the matrices {MASS} or {STIFFNESS} (PARAM,EXTOUT,DMIGPCH)",
+                            ", ".join(sorted(cards)) or "none")
+    return Matrices(pch, M, K)
+
+
+def _load(pch: str) -> dict:
+    from cpylog import SimpleLogger
+    from pyNastran.bdf.bdf import read_bdf
+
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), \
+                contextlib.redirect_stderr(io.StringIO()):
+            warnings.simplefilter("ignore")
+            return read_bdf(pch, punch=True, xref=False, validate=False, read_cards=["DMIG"],
+                            log=SimpleLogger(level="critical")).dmig
+    except (Exception, SystemExit) as e:  # pyNastran raises many kinds on a damaged card
+        raise BodyFileError(pch, "file", "a punch file pyNastran can read",
+                            f"{type(e).__name__}: {' '.join(str(e).split())[:160]}") from None
+
+
+def _matrix(pch: str, name: str, dmig, index: dict, T: sp.csr_array) -> sp.csr_array:
+    """One DMIG over the grids' 6 DOFs, turned to basic: ``T A T^T``."""
+    field = f"DMIG {name}"
+    if dmig.matrix_form not in (1, 6) or dmig.tin not in (1, 2):
+        raise BodyFileError(pch, field, "a real square or symmetric matrix (IFO 1 or 6, TIN 1 or 2)",
+                            f"IFO {dmig.matrix_form}, TIN {dmig.tin}")
+    try:
+        A, rows, cols = dmig.get_matrix(is_sparse=True, apply_symmetry=dmig.matrix_form == 6)
+    except (Exception, SystemExit) as e:
+        raise BodyFileError(pch, field, "a matrix pyNastran can assemble", f"{type(e).__name__}: {e}") from None
+    A = sp.coo_array(A)
+    r, c = _dofs(pch, field, rows, index), _dofs(pch, field, cols, index)
+    n6 = 6 * len(index)
+    full = sp.csr_array((A.data.astype(float), (r[A.row], c[A.col])), shape=(n6, n6))
+    turned = sp.csr_array(T @ full @ T.T)
+    if not np.all(np.isfinite(turned.data)):
+        raise BodyFileError(pch, field, "finite numbers", "NaN or infinity")
+    return turned
+
+
+def _dofs(pch: str, field: str, labels: dict, index: dict) -> np.ndarray:
+    """Matrix index -> DOF 6 i + c - 1 of (grid, component c)."""
+    out = np.empty(len(labels), np.int64)
+    for k, label in labels.items():
+        grid, comp = (label, 0) if np.isscalar(label) else label
+        if comp not in range(1, 7) or int(grid) not in index:
+            what = f"scalar point {grid}" if comp == 0 else f"grid {grid} component {comp}"
+            raise BodyFileError(pch, field, "terms on the components 1-6 of the OP2's grids", what)
+        out[k] = 6 * index[int(grid)] + comp - 1
+    return out
+
+
+def _frame_matrix(frames: np.ndarray) -> sp.csr_array:
+    """Block diagonal of (F_i, F_i) per grid: basic DOFs = T times CD DOFs."""
+    n = len(frames)
+    blocks = np.zeros((n, 2, 3, 2, 3))
+    blocks[:, 0, :, 0, :] = blocks[:, 1, :, 1, :] = frames
+    rows = (6 * np.arange(n))[:, None, None] + np.arange(6)[None, :, None] + np.zeros((1, 1, 6), int)
+    cols = np.transpose(rows, (0, 2, 1))
+    return sp.csr_array((blocks.reshape(n, 6, 6).ravel(), (rows.ravel(), cols.ravel())), shape=(6 * n, 6 * n))
+
+
+# ---------------------------------------------------------------- 6-DOF vectors and the nodal form (theory 3b)
+def six_dof(T: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Translations and rotations (n, 3, k) as 6n x k vectors in the DOF order of the matrices."""
+    n, _, k = T.shape
+    return np.concatenate([T, R], axis=1).reshape(6 * n, k)
+
+
+def rigid_modes_6(X: np.ndarray) -> np.ndarray:
+    """The six rigid-body modes of 6-DOF nodes at X (6n x 6): translations e_k; rotations (e_k x x, e_k)."""
+    n = len(X)
+    R = np.zeros((n, 6, 6))
+    for k in range(3):
+        R[:, k, k] = 1.0
+        R[:, :3, 3 + k] = np.cross(np.eye(3)[k], X)
+        R[:, 3 + k, 3 + k] = 1.0
+    return R.reshape(6 * n, 6)
+
+
+def nodal_form(M: sp.csr_array) -> tuple[sp.csr_array, np.ndarray]:
+    """The part of a 6-DOF mass that the body model holds (theory 3b): the scalar mass Ms (n x n), the mean of
+    the T1, T2, T3 blocks, and the nodal rotary inertia J (n, 3, 3), the diagonal blocks of the rotations.
+    Exact when M is ``Ms kron I3`` on the translations plus nodal J; other couplings are dropped."""
+    n = M.shape[0] // 6
+
+    def block(a: int, b: int) -> sp.csr_array:
+        return M[np.arange(n) * 6 + a][:, np.arange(n) * 6 + b]
+
+    Ms = sp.csr_array(sum(block(c, c) for c in range(3)) / 3)
+    J = np.stack([np.stack([block(3 + a, 3 + b).diagonal() for b in range(3)], -1) for a in range(3)], 1)
+    return Ms, 0.5 * (J + J.transpose(0, 2, 1))
+
+
+def nodal_matrix(Ms: sp.csr_array, J: np.ndarray) -> sp.csr_array:
+    """The 6-DOF mass of the nodal form: Ms on each translation, J_i on the rotations of node i."""
+    n = Ms.shape[0]
+    trans = sp.kron(Ms, sp.diags_array([1.0, 1, 1, 0, 0, 0]))
+    rows = (6 * np.arange(n) + 3)[:, None, None] + np.arange(3)[None, :, None] + np.zeros((1, 1, 3), int)
+    rot = sp.csr_array((J.ravel(), (rows.ravel(), np.transpose(rows, (0, 2, 1)).ravel())), shape=(6 * n, 6 * n))
+    return sp.csr_array(trans + rot)
+
+
+def rigid_mass_loss(M: sp.csr_array, X: np.ndarray) -> float:
+    """How much of the rigid-body mass matrix of M the nodal form loses: max |R^T (Mn - M) R| / max |R^T M R|,
+    with the rotations of the rigid modes R scaled by the body's size (dimensionless)."""
+    R = rigid_modes_6(X - X.mean(axis=0))
+    R[:, 3:] /= max(np.ptp(X, axis=0).max(), np.finfo(float).tiny)
+    full = R.T @ (M @ R)
+    nodal = R.T @ (nodal_matrix(*nodal_form(M)) @ R)
+    return float(np.abs(nodal - full).max() / np.abs(full).max())
+
+
+def free_body_residual(K: sp.csr_array, X: np.ndarray) -> float:
+    """max_k |K r_k| / (|K|_F |r_k|) over the rigid modes: ~0 for the stiffness of a free body."""
+    R = rigid_modes_6(X - X.mean(axis=0))
+    return float((np.linalg.norm(K @ R, axis=0) / np.linalg.norm(R, axis=0)).max() / spla.norm(K))

@@ -90,7 +90,8 @@ def _free_free_run(body, genmass: np.ndarray):
     T = np.concatenate([rigid, fe.Phi * np.sqrt(genmass)], axis=2)
     run = nastran.NastranModes(np.arange(1, n + 1), fe.mesh.points, np.r_[np.zeros(6), body.eigenvalues],
                                np.r_[np.ones(6), genmass], T, np.zeros_like(T),
-                               np.r_[np.zeros(6), body.sigma_max * np.sqrt(genmass)], {"CHEXA": 80})
+                               np.r_[np.zeros(6), body.sigma_max * np.sqrt(genmass)], {"CHEXA": 80},
+                               np.concatenate([np.zeros((n, 6)), fe.stress_nodal * np.sqrt(genmass)], axis=1))
     mass = nastran.NodalMass(fe.Ms, np.zeros((n, 3, 3)), np.zeros((0, 3)), np.zeros(0, np.int64), [])
     return run, mass
 
@@ -102,6 +103,7 @@ def test_a_free_free_run_gives_the_bodys_invariants_and_advice():
     assert np.allclose(back.I0, body.I0, rtol=1e-12) and np.allclose(back.eigenvalues, body.eigenvalues)
     assert np.allclose(np.abs(back.W1), np.abs(body.W1), atol=1e-10 * np.abs(body.W1).max())
     assert np.allclose(back.sigma_max, body.sigma_max, rtol=1e-12)
+    assert np.allclose(back.fe.stress_nodal, body.fe.stress_nodal, rtol=1e-12)  # scaled like the modes
     options = Options(situation=Situation(w_op=300.0))
     assert analyze(back, options).advice.terms == analyze(body, options).advice.terms
 
@@ -348,3 +350,26 @@ def test_damaged_punch_files_end_in_one_line(tmp_path):
             refused += 1
             assert len(result.output.strip().splitlines()) == 1 and "frame.pch" in result.output, result.output
     assert refused > 0
+
+
+def _rows(table, eid: int, nid: int) -> np.ndarray:
+    """The rows (nm, k, columns) of element eid at grid nid (0: centroid) in a pyNastran stress table."""
+    return np.asarray(table.data, dtype=float)[:, (table.element_node[:, 0] == eid) & (table.element_node[:, 1] == nid)]
+
+
+@needs_data
+def test_nodal_von_mises_averages_corner_values_of_the_elements_at_a_grid():
+    m = nastran._load(MULTI)
+    run = nastran._modes(MULTI, m)
+    s, at = m.op2_results.stress, {int(g): i for i, g in enumerate(run.grids)}
+    quad8, tria6, beam = (next(iter(getattr(s, t).values())) for t in ("cquad8_stress", "ctria6_stress", "cbeam_stress"))
+    vm = -1  # the von Mises column of shells
+    grid60 = (np.abs(_rows(quad8, 60, 60)[:, :, vm]).max(axis=1) + np.abs(_rows(tria6, 61, 60)[:, :, vm]).max(axis=1)) / 2
+    assert np.allclose(run.stress_nodal[at[60]], grid60, rtol=1e-12)  # CQUAD8 60 and CTRIA6 61, two fibres each
+    fibre = [beam.get_headers().index(h) for h in ("smax", "smin")]
+    assert np.allclose(run.stress_nodal[at[26]], np.abs(_rows(beam, 12, 26)[:, 0, fibre]).max(axis=1))  # CBEAM end
+    bar = next(iter(s.cbar_stress.values()))
+    b = [bar.get_headers().index(h) for h in ("smaxb", "sminb")]
+    assert m.elements[13].node_ids[1] == 27
+    assert np.allclose(run.stress_nodal[at[27]], np.abs(np.asarray(bar.data, float)[:, 0, b]).max(axis=1))  # CBAR end B
+    assert np.allclose(run.sigma_max, run.stress_nodal.max(axis=0))

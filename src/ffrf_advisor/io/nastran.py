@@ -10,8 +10,9 @@ the generalised mass and checked against the mass assembled here (theory 3b):
 - CQUAD4, CQUADR, CQUAD8, CTRIA3, CTRIAR, CTRIA6: the element mass shared equally by its nodes;
 - CHEXA with 8 or 20 nodes: the consistent mass of the FE module;
 - springs, dampers and rigid elements carry no mass; any other element is refused by name.
-The run must be free-free (six rigid-body modes, which are dropped). Stresses: the largest element von
-Mises stress per mode (bars and beams: the largest fibre stress |smax|, |smin|).
+The run must be free-free (six rigid-body modes, which are dropped), or come with the free body's MAAX and
+KAAX punched beside it (``nastran_dmig``; then it is brought to free-free form, theory 4); MAAX, when
+there, replaces the assembled mass. Stresses: von Mises averaged at the grids (``nodal_stress``).
 """
 from __future__ import annotations
 
@@ -56,8 +57,9 @@ class NastranModes:
     generalized_mass: np.ndarray  # (nm,)
     T: np.ndarray            # (n, 3, nm) translations
     R: np.ndarray            # (n, 3, nm) rotations
-    sigma_max: np.ndarray | None
+    sigma_max: np.ndarray | None  # (nm,) the largest of stress_nodal
     element_types: dict[str, int]
+    stress_nodal: np.ndarray | None = None  # (n, nm) von Mises averaged at the grids
 
 
 def _pynastran():
@@ -122,9 +124,11 @@ def _modes(path, m) -> NastranModes:
     if len(genmass) != len(lam) or np.any(genmass <= 0):
         raise BodyFileError(path, "eigenvalue table", f"{len(lam)} positive generalised masses")
     points, data = _to_basic(path, m, gids, data)
+    stress = nodal_stress(m, len(lam), gids)
     return NastranModes(gids, points, lam, genmass, np.moveaxis(data[:, :, :3], 0, 2),
-                        np.moveaxis(data[:, :, 3:], 0, 2), _stress_max(m, len(lam)),
-                        dict(sorted(Counter(e.type for e in (*m.elements.values(), *m.masses.values())).items())))
+                        np.moveaxis(data[:, :, 3:], 0, 2), None if stress is None else stress.max(axis=0),
+                        dict(sorted(Counter(e.type for e in (*m.elements.values(), *m.masses.values())).items())),
+                        stress)
 
 
 def _to_basic(path, m, gids: np.ndarray, data: np.ndarray):
@@ -154,20 +158,77 @@ def _frames(path, m, gids: np.ndarray) -> np.ndarray:
     return F
 
 
-def _stress_max(m, nm: int) -> np.ndarray | None:
-    """Per mode, the largest element von Mises stress (bars, beams: the largest |fibre stress|)."""
-    best = None
-    stress = m.op2_results.stress
-    for name in stress.get_table_types():
-        for obj in getattr(stress, name.split(".")[-1]).values():
-            headers = obj.get_headers()
-            cols = [headers.index(h) for h in ("von_mises", "ovm") if h in headers] or \
-                   [headers.index(h) for h in ("smax", "smin", "smaxa", "smina", "smaxb", "sminb") if h in headers]
-            if not cols or obj.data.shape[0] != nm:
-                continue
-            value = np.abs(np.asarray(obj.data, dtype=float)[:, :, cols]).max(axis=(1, 2))
-            best = value if best is None else np.maximum(best, value)
-    return best
+# ---------------------------------------------------------------- modal stresses
+def nodal_stress(m, nm: int, grids: np.ndarray) -> np.ndarray | None:
+    """Per mode, the von Mises stress at each grid (n, nm), averaged over the elements that share the grid.
+
+    An element gives its corner values where Nastran wrote them (``STRESS(CORNER)``: solids, shells; beam
+    ends; bar ends), else its one value to each of its grids. Per element and grid the largest over fibres is
+    taken; bars and beams give their largest |fibre stress|, rods sqrt(axial^2 + 3 torsion^2). Values, not
+    tensors, are averaged: Nastran gives shell tensors in each element's own frame.
+    """
+    index = {int(g): i for i, g in enumerate(grids)}
+    samples = [s for name in m.op2_results.stress.get_table_types()
+               for obj in getattr(m.op2_results.stress, name.split(".")[-1]).values() if obj.data.shape[0] == nm
+               for s in _samples(m, obj, index)]
+    if not samples:
+        return None
+    pairs = np.column_stack([np.concatenate([s[0] for s in samples]), np.concatenate([s[1] for s in samples])])
+    values = np.concatenate([s[2] for s in samples], axis=1)
+    keys, which = np.unique(pairs, axis=0, return_inverse=True)
+    per_pair = np.zeros((len(keys), nm))
+    np.maximum.at(per_pair, which.ravel(), values.T)  # the largest over fibres, layers and duplicate rows
+    total, count = np.zeros((len(grids), nm)), np.zeros(len(grids))
+    np.add.at(total, keys[:, 1], per_pair)
+    np.add.at(count, keys[:, 1], 1)
+    return total / np.maximum(count, 1)[:, None]
+
+
+def _samples(m, obj, index: dict) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(element ids, grid indices, values (nm, k)) of one stress table, corner rows where present."""
+    headers = obj.get_headers()
+    data = np.asarray(obj.data, dtype=float)
+
+    def largest(*names):
+        cols = [headers.index(h) for h in names if h in headers]
+        return np.abs(data[:, :, cols]).max(axis=2) if cols else None
+
+    if not getattr(obj, "is_von_mises", True):
+        return []
+    if hasattr(obj, "element_node"):
+        value = largest("von_mises", "ovm")
+        value = largest("smax", "smin") if value is None else value
+        if value is None:
+            return []
+        eids, nids = obj.element_node[:, 0], obj.element_node[:, 1]
+        corner = nids > 0
+        centre = ~corner & ~np.isin(eids, eids[corner])
+        return [_at_grids(eids[corner], nids[corner], value[:, corner], index),
+                _spread(m, eids[centre], value[:, centre], index)]
+    if not hasattr(obj, "element"):
+        return []
+    if "smaxa" in headers:  # bars: end A at the first grid, end B at the second
+        ends = [[m.elements[int(e)].node_ids[k] for e in obj.element] for k in (0, 1)]
+        return [_at_grids(obj.element, np.array(ends[k]), largest(*cols), index)
+                for k, cols in ((0, ("smaxa", "smina")), (1, ("smaxb", "sminb")))]
+    if "axial" in headers and "torsion" in headers:
+        axial, torsion = (data[:, :, headers.index(h)] for h in ("axial", "torsion"))
+        return [_spread(m, obj.element, np.sqrt(axial**2 + 3 * torsion**2), index)]
+    return []
+
+
+def _at_grids(eids, nids, value: np.ndarray, index: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows at grids of the run (scalar points and others dropped)."""
+    known = np.array([int(g) in index for g in nids], dtype=bool)
+    grid = np.array([index[int(g)] for g in np.asarray(nids)[known]], dtype=np.int64)
+    return np.asarray(eids)[known], grid, value[:, known]
+
+
+def _spread(m, eids, value: np.ndarray, index: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """An element's one value given to each of its grids."""
+    rows = [(k, g) for k, e in enumerate(eids) for g in m.elements[int(e)].node_ids if g]
+    take = np.array([k for k, _ in rows], dtype=np.int64)
+    return _at_grids(np.asarray(eids)[take], np.array([g for _, g in rows]), value[:, take], index)
 
 
 # ---------------------------------------------------------------- mass (theory 3b)
@@ -316,7 +377,10 @@ def body_of(path, run: NastranModes, mass: NodalMass, mats: nastran_dmig.Matrice
         notes += _matrix_notes(run, flex, scale, mats)
     has_rotary = np.abs(mass.J).max(axis=(1, 2)) > 0
     rotary = NodalRotary(np.flatnonzero(has_rotary), mass.J[has_rotary], R[has_rotary][:, :, flex] * scale)
-    fe = ModalFE(Mesh(points, {}), mass.Ms, T[:, :, flex] * scale, rotary=rotary if has_rotary.any() else None)
+    stress = None if run.stress_nodal is None else \
+        np.concatenate([run.stress_nodal, np.zeros((len(points) - len(run.grids), len(flex)))])[:, flex] * scale
+    fe = ModalFE(Mesh(points, {}), mass.Ms, T[:, :, flex] * scale, stress_nodal=stress,
+                 rotary=rotary if has_rotary.any() else None)
     sigma = None if run.sigma_max is None else run.sigma_max[flex] * scale
     off_diagonal = sp.csr_array(mass.Ms - sp.diags_array(mass.Ms.diagonal())).count_nonzero()
     kind = "lumped" if off_diagonal == 0 else "consistent" if mats is not None and mats.M is not None else "unknown"

@@ -124,10 +124,11 @@ def test_a_body_from_a_run_is_written_read_and_reported(tmp_path):
     assert "no solid cells to draw" in (tmp_path / "n.html").read_text()
 
 
-def _write_op2(path, points, lam, T, R=None, body=None, frame=None) -> None:
+def _write_op2(path, points, lam, T, R=None, body=None, frame=None, deck=None) -> None:
     """A SOL 103 run as Nastran writes it, with pyNastran's OP2 writer: GRIDs (with ``frame`` as every grid's CD,
     the modes given in it), the CHEXA20 solid of ``body`` if given (PSOLID, MAT1 with rho), eigenvalues ``lam``
-    and translations ``T`` and rotations ``R`` (n, 3, nm) in basic, float32."""
+    and translations ``T`` and rotations ``R`` (n, 3, nm) in basic, float32. With ``deck`` the geometry goes
+    to that input deck instead of the OP2."""
     from cpylog import SimpleLogger
     from pyNastran.op2.op2_geom import OP2Geom
     from pyNastran.op2.tables.oug.oug_eigenvectors import RealEigenvectorArray
@@ -154,6 +155,10 @@ def _write_op2(path, points, lam, T, R=None, body=None, frame=None) -> None:
     ev = RealEigenvectorArray.add_modal_case("OUGV1", np.column_stack([np.arange(1, n + 1), np.ones(n, int)]), data,
                                              1, np.arange(1, nm + 1), lam, np.sqrt(np.abs(lam)) / (2 * np.pi))
     ev.table_code, ev.device_code, ev.approach_code = 7, 1, 21  # eigenvectors, as Nastran writes them
+    if deck is not None:
+        model.write_bdf(str(deck))
+        model = OP2Geom(log=SimpleLogger(level="critical"))
+        model.set_mode("msc")
     model.eigenvectors[1] = ev
     model.write_op2(str(path), post=-1, endian=b"<")
 
@@ -176,13 +181,14 @@ def _write_punch(path, matrices: dict, frame=None) -> None:
     model.write_bdf(str(path), write_header=False, size=16, is_double=True)
 
 
-def _sample_op2(body, path, frame=None) -> None:
+def _sample_op2(body, path, frame=None, deck=None) -> None:
     """The body as a free-free SOL 103 run: six rigid modes, then its modes, mass-normalised."""
     from ffrf_advisor.fe.modal import rigid_modes
 
     n = body.fe.mesh.n_nodes
     T = np.concatenate([rigid_modes(body.fe.mesh.points).reshape(n, 3, 6), body.fe.Phi], axis=2)
-    _write_op2(path, body.fe.mesh.points, np.r_[np.zeros(6), body.eigenvalues], T, body=body, frame=frame)
+    _write_op2(path, body.fe.mesh.points, np.r_[np.zeros(6), body.eigenvalues], T, body=body, frame=frame,
+               deck=deck)
 
 
 def test_a_sample_written_as_op2_by_pynastran_reads_back_with_its_invariants_and_advice(tmp_path):
@@ -373,3 +379,24 @@ def test_nodal_von_mises_averages_corner_values_of_the_elements_at_a_grid():
     assert m.elements[13].node_ids[1] == 27
     assert np.allclose(run.stress_nodal[at[27]], np.abs(np.asarray(bar.data, float)[:, 0, b]).max(axis=1))  # CBAR end B
     assert np.allclose(run.sigma_max, run.stress_nodal.max(axis=0))
+
+
+def test_an_op2_without_geometry_takes_it_from_the_input_deck_beside_it(tmp_path):
+    body = replace(read_body(SAMPLE, load_fe=True), geometric=None, static_centrifugal=None)
+    path = tmp_path / "beam.op2"
+    deck = tmp_path / "beam.bdf"
+    _sample_op2(body, path, deck=deck)
+    deck.write_text("SOL 103\nCEND\n" + deck.read_text())  # pyNastran writes no executive control
+    back = read_body(path)
+    assert np.allclose(back.I0, body.I0, rtol=1e-6) and np.allclose(back.eigenvalues, body.eigenvalues, rtol=1e-6)
+    full = deck.read_text()
+    deck.write_text(full.split("BEGIN BULK\n")[1])  # bulk data only, as a file an input deck includes
+    assert np.allclose(read_body(path).I0, back.I0, rtol=1e-12)
+    deck.write_text(full)
+    deck.write_text(deck.read_text().replace("BEGIN BULK\n", "BEGIN BULK\nINCLUDE 'geom.inc'\n"))
+    result = runner.invoke(app, ["info", str(path)])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1
+    assert "beam.bdf: file: expected an input deck pyNastran can read with its INCLUDE files" in result.output
+    deck.unlink()
+    result = runner.invoke(app, ["info", str(path)])
+    assert result.exit_code == 2 and "or an input deck beside it" in result.output

@@ -44,6 +44,9 @@ LINES = ("CBAR", "CBEAM", "CROD", "CONROD", "CTUBE")
 SHELLS = ("CQUAD4", "CQUADR", "CQUAD8", "CTRIA3", "CTRIAR", "CTRIA6")
 MASSLESS = ("CELAS1", "CELAS2", "CELAS3", "CELAS4", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CVISC", "CBUSH",
             "CBUSH1D", "CGAP", "PLOTEL")
+PUNCH = (".pch", ".PCH")  # where PARAM,EXTOUT,DMIGPCH puts MAAX and KAAX
+DECK = (".bdf", ".dat", ".nas", ".BDF", ".DAT", ".NAS")  # the input deck, for the geometry
+DECK_FACTOR = 16  # bytes of pyNastran's card objects per byte of deck
 HEX20 = list(range(12)) + list(range(16, 20)) + list(range(12, 16))  # Nastran CHEXA20 -> VTK node order
 
 
@@ -88,15 +91,24 @@ def _load(path):
 def parse(path, free_free: bool = False) -> tuple[NastranModes, "NodalMass", nastran_dmig.Matrices | None]:
     """The run of ``path``, its nodal mass and the matrices punched beside it, parsed in a guarded child
     (io.guard); with ``free_free`` a run that is not free-free and cannot be transformed (no MAAX and KAAX)
-    is refused before its elements are looked at."""
+    is refused before its elements are looked at. The geometry comes from the OP2, else from the input
+    deck beside it (JOBNAME.bdf, .dat or .nas)."""
     check_file_size(path, 8)
-    pch = nastran_dmig.beside(path)
-    return guard.run(path, "pyNastran", _parse_and_assemble, path, pch, free_free,
-                     extra_bytes=0 if pch is None else os.path.getsize(pch))
+    pch, deck = beside(path, PUNCH), beside(path, DECK)
+    extra = sum(os.path.getsize(f) for f in (pch, deck) if f is not None)
+    return guard.run(path, "pyNastran", _parse_and_assemble, path, pch, deck, free_free, extra_bytes=extra)
 
 
-def _parse_and_assemble(path, pch: str | None, free_free: bool):
+def beside(path, suffixes: tuple[str, ...]) -> str | None:
+    """The file of the same job name beside ``path`` with one of ``suffixes``, if there is one."""
+    stem = os.path.splitext(str(path))[0]
+    return next((stem + s for s in suffixes if os.path.isfile(stem + s)), None)
+
+
+def _parse_and_assemble(path, pch: str | None, deck: str | None, free_free: bool):
     m = _load(path)
+    if not m.nodes and deck is not None:
+        _geometry_from_deck(m, deck)
     run = _modes(path, m)
     mats = None if pch is None else nastran_dmig.read(pch, run.grids, _frames(path, m, run.grids))
     if free_free:
@@ -109,11 +121,36 @@ def _parse_and_assemble(path, pch: str | None, free_free: bool):
                           f"the nodal form of {nastran_dmig.MASS}"), mats
 
 
+def _geometry_from_deck(m, deck: str) -> None:
+    """Grids, frames, elements, properties, materials and masses of the input deck, into the OP2's model."""
+    from cpylog import SimpleLogger
+    from pyNastran.bdf.bdf import read_bdf
+
+    check_file_size(deck, DECK_FACTOR)
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), \
+                contextlib.redirect_stderr(io.StringIO()):
+            warnings.simplefilter("ignore")
+            geometry = read_bdf(deck, xref=True, validate=False, punch=not _has_bulk_section(deck),
+                                log=SimpleLogger(level="critical"))
+    except (Exception, SystemExit) as e:  # a missing INCLUDE, a damaged card
+        raise BodyFileError(deck, "file", "an input deck pyNastran can read with its INCLUDE files",
+                            f"{type(e).__name__}: {' '.join(str(e).split())[:160]}") from None
+    for name in ("nodes", "coords", "elements", "masses", "properties", "materials"):
+        setattr(m, name, getattr(geometry, name))
+
+
+def _has_bulk_section(deck: str) -> bool:
+    """Whether the deck has executive and case control before BEGIN BULK (else it is bulk data only)."""
+    with open(deck, "rb") as f:
+        return b"BEGIN BULK" in f.read(1 << 20).upper()
+
+
 def _modes(path, m) -> NastranModes:
     if not m.eigenvectors:
         raise BodyFileError(path, "eigenvectors", "mode shapes of a SOL 103 run (DISP=ALL)", "none")
     if not m.nodes:
-        raise BodyFileError(path, "geometry", "grids in the OP2 (PARAM,POST,-1)", "none")
+        raise BodyFileError(path, "geometry", "grids in the OP2 (PARAM,POST,-1) or an input deck beside it", "none")
     ev = next(iter(m.eigenvectors.values()))
     grid = ev.node_gridtype[:, 1] == 1  # 2: scalar points, dropped
     gids = ev.node_gridtype[grid, 0]

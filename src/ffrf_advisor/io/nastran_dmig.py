@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import contextlib
 import io
-import os
 import warnings
 from dataclasses import dataclass
 
@@ -22,7 +21,6 @@ from .limits import check_file_size
 
 MASS, STIFFNESS = "MAAX", "KAAX"
 PUNCH_FACTOR = 8  # bytes of pyNastran's card objects per byte of punch (16-character fields, two lines a term)
-SUFFIXES = (".pch", ".PCH")
 
 
 @dataclass
@@ -32,12 +30,6 @@ class Matrices:
     source: str
     M: sp.csr_array | None
     K: sp.csr_array | None
-
-
-def beside(path) -> str | None:
-    """The punch file Nastran writes beside ``path`` (same job name), if there is one."""
-    stem = os.path.splitext(str(path))[0]
-    return next((stem + s for s in SUFFIXES if os.path.isfile(stem + s)), None)
 
 
 def read(pch: str, grids: np.ndarray, frames: np.ndarray) -> Matrices:

@@ -17,7 +17,7 @@ from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh
 from ffrf_advisor.guidelines import Situation
 from ffrf_advisor.io import read_body, write_body
-from ffrf_advisor.sim.linearise import linearise
+from ffrf_advisor.sim.linearise import _modal_oscillations, campbell, linearise
 from ffrf_advisor.sim.model import build_model
 from ffrf_advisor.significance import softening_speeds
 from ffrf_advisor.terms import FULL, LEVEL_SETS
@@ -140,6 +140,20 @@ def test_linearisation_gives_the_modal_frequencies_at_rest_and_loses_mode_1_at_s
     below, above = linearise(soft, np.eye(3)[2], 0.98 * s_crit), linearise(soft, np.eye(3)[2], 1.02 * s_crit)
     assert not below.unstable and above.unstable
     assert len(above.frequencies) == body.nf - 1
+
+
+def test_at_most_nf_oscillations_are_the_modes_and_the_least_modal_is_left_to_the_wobble():
+    share = np.array([0.9, 0.51, 0.6, 0.2])  # the wobble near a crossing carries 51 % of its energy in a mode
+    assert _modal_oscillations(share, 2).tolist() == [True, False, True, False]
+    assert _modal_oscillations(share, 3).tolist() == [True, True, True, False]
+
+
+def test_the_conrods_campbell_branches_about_axis_2_have_no_jumps():
+    body = read_body(DIR / "conrod.ffrf.h5")  # its wobble crosses mode 1 near 660 Hz
+    speeds = np.linspace(0.0, 0.6 * softening_speeds(body)[1], 40)
+    f, _ = campbell(build_model(body, FULL), np.eye(3)[1], speeds)
+    assert f.shape == (len(speeds), body.nf) and not np.isnan(f).any()
+    assert np.abs(np.diff(f, axis=0)).max() < 0.02 * f.max()  # a branch swap would jump by a mode's spacing
 
 
 # ---------------------------------------------------------------- the command

@@ -84,9 +84,19 @@ def linearise(model: Model, axis, s: float) -> Linearisation:
     top = np.abs(mu).max() if mu.size else 1.0
     unstable = bool(np.any(mu.real > UNSTABLE * top))
     osc = np.flatnonzero(mu.imag > 1e-9 * top)
-    modal = _modal_share(model, V[:, osc]) >= 0.5
+    modal = _modal_oscillations(_modal_share(model, V[:, osc]), model.nf)
     to_hz = lambda idx: np.sort(mu.imag[idx]) / (2 * np.pi)  # noqa: E731
     return Linearisation(s, a, q, mu, to_hz(osc[modal]), to_hz(osc[~modal]), unstable)
+
+
+def _modal_oscillations(share: np.ndarray, nf: int) -> np.ndarray:
+    """Oscillations owned by the modes: most of their energy modal, at most nf of them (the most modal ones;
+    near a crossing the spinning body's wobble can carry just over half its energy in a mode)."""
+    modal = share >= 0.5
+    if modal.sum() > nf:
+        modal[:] = False
+        modal[np.argsort(-share, kind="stable")[:nf]] = True
+    return modal
 
 
 def _modal_share(model: Model, V: np.ndarray) -> np.ndarray:
@@ -103,7 +113,7 @@ def campbell(model: Model, axis, speeds) -> tuple[np.ndarray, np.ndarray]:
     rows, flags = [], []
     for s in speeds:
         lin = linearise(model, axis, s)
-        f = lin.frequencies[:model.nf]
+        f = lin.frequencies
         rows.append(np.pad(f, (model.nf - len(f), 0), constant_values=np.nan))
         flags.append(lin.unstable)
     return np.array(rows), np.array(flags)

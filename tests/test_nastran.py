@@ -17,7 +17,7 @@ from ffrf_advisor.analysis import Options, analyze  # noqa: E402
 from ffrf_advisor.cli import app  # noqa: E402
 from ffrf_advisor.errors import FFRFError  # noqa: E402
 from ffrf_advisor.guidelines import Situation  # noqa: E402
-from ffrf_advisor.io import nastran, nastran_dmig, read_body, write_body  # noqa: E402
+from ffrf_advisor.io import nastran, nastran_dmig, nastran_mass, read_body, write_body  # noqa: E402
 
 from .fuzz_readers import mutate  # noqa: E402
 
@@ -40,13 +40,13 @@ def beam():
 @needs_data
 def test_the_assembled_6dof_mass_reproduces_nastrans_generalised_masses(beam):
     run, mass, _ = beam
-    assert np.abs(nastran.generalized_mass_error(run, mass)).max() < FLOAT32
+    assert np.abs(nastran_mass.generalized_mass_error(run, mass)).max() < FLOAT32
     translations_only = replace(mass, J=np.zeros_like(mass.J))
-    lost = -nastran.generalized_mass_error(run, translations_only)
+    lost = -nastran_mass.generalized_mass_error(run, translations_only)
     assert lost.max() == pytest.approx(1.0, abs=FLOAT32)  # the torsion mode has only rotary inertia
     bending = lost[lost < 0.5]
     assert 0.005 < bending[bending > 1e-6].min() and bending.max() < 0.23  # 0.6 % to 22 %, as measured
-    share = nastran.rotary_share(run, mass)
+    share = nastran_mass.rotary_share(run, mass)
     assert int(np.argmax(share)) == int(np.argmax(lost)) and share.max() == pytest.approx(1.0, abs=FLOAT32)
 
 
@@ -92,7 +92,7 @@ def _free_free_run(body, genmass: np.ndarray):
                                np.r_[np.ones(6), genmass], T, np.zeros_like(T),
                                np.r_[np.zeros(6), body.sigma_max * np.sqrt(genmass)], {"CHEXA": 80},
                                np.concatenate([np.zeros((n, 6)), fe.stress_nodal * np.sqrt(genmass)], axis=1))
-    mass = nastran.NodalMass(fe.Ms, np.zeros((n, 3, 3)), np.zeros((0, 3)), np.zeros(0, np.int64), [])
+    mass = nastran_mass.NodalMass(fe.Ms, np.zeros((n, 3, 3)), np.zeros((0, 3)), np.zeros(0, np.int64), [])
     return run, mass
 
 
@@ -146,7 +146,7 @@ def _write_op2(path, points, lam, T, R=None, body=None, frame=None, deck=None) -
         model.add_psolid(1, 1)
         for e, conn in enumerate(body.fe.mesh.cells["hexahedron20"]):
             nastran_order = np.empty(20, int)
-            nastran_order[nastran.HEX20] = conn + 1  # the reader's map, inverted
+            nastran_order[nastran_mass.HEX20] = conn + 1  # the reader's map, inverted
             model.add_chexa(e + 1, 1, nastran_order.tolist())
     data = np.zeros((nm, n, 6), np.float32)
     data[:, :, :3] = np.einsum("ba,ibp->pia", F, T)  # CD components F^T u
@@ -207,8 +207,8 @@ def test_a_sample_written_as_op2_by_pynastran_reads_back_with_its_invariants_and
 def test_an_offset_point_mass_moves_rigidly_with_its_grid():
     run = nastran.NastranModes(np.array([1]), np.zeros((1, 3)), np.array([1.0]), np.array([1.0]),
                                np.zeros((1, 3, 1)), np.array([[[0.0], [0.0], [0.01]]]), None, {})
-    mass = nastran.NodalMass(None, np.zeros((2, 3, 3)), np.array([[2.0, 0.0, 0.0]]), np.array([0]), [])
-    points, T, R = nastran.modes_with_extra_nodes(run, mass)
+    mass = nastran_mass.NodalMass(None, np.zeros((2, 3, 3)), np.array([[2.0, 0.0, 0.0]]), np.array([0]), [])
+    points, T, R = nastran_mass.modes_with_extra_nodes(run, mass)
     assert np.allclose(points[1], [2, 0, 0]) and np.allclose(T[1, :, 0], [0, 0.02, 0])  # theta_z x (2, 0, 0)
     assert np.allclose(R[1], R[0])
 
@@ -288,7 +288,7 @@ def test_the_space_frame_stiffness_has_the_six_rigid_modes_in_its_null_space():
 def _frame_body(run, K, M):
     mats = nastran_dmig.Matrices("frame.pch", sp.csr_array(M), sp.csr_array(K))
     Ms, J = nastran_dmig.nodal_form(mats.M)
-    mass = nastran.NodalMass(Ms, J, np.zeros((0, 3)), np.zeros(0, np.int64), [], "the nodal form of MAAX")
+    mass = nastran_mass.NodalMass(Ms, J, np.zeros((0, 3)), np.zeros(0, np.int64), [], "the nodal form of MAAX")
     return nastran.body_of("frame.op2", run, mass, mats)
 
 
@@ -368,9 +368,11 @@ def test_nodal_von_mises_averages_corner_values_of_the_elements_at_a_grid():
     m = nastran._load(MULTI)
     run = nastran._modes(MULTI, m)
     s, at = m.op2_results.stress, {int(g): i for i, g in enumerate(run.grids)}
-    quad8, tria6, beam = (next(iter(getattr(s, t).values())) for t in ("cquad8_stress", "ctria6_stress", "cbeam_stress"))
+    quad8, tria6, beam = (next(iter(getattr(s, t).values()))
+                          for t in ("cquad8_stress", "ctria6_stress", "cbeam_stress"))
     vm = -1  # the von Mises column of shells
-    grid60 = (np.abs(_rows(quad8, 60, 60)[:, :, vm]).max(axis=1) + np.abs(_rows(tria6, 61, 60)[:, :, vm]).max(axis=1)) / 2
+    grid60 = (np.abs(_rows(quad8, 60, 60)[:, :, vm]).max(axis=1)
+              + np.abs(_rows(tria6, 61, 60)[:, :, vm]).max(axis=1)) / 2
     assert np.allclose(run.stress_nodal[at[60]], grid60, rtol=1e-12)  # CQUAD8 60 and CTRIA6 61, two fibres each
     fibre = [beam.get_headers().index(h) for h in ("smax", "smin")]
     assert np.allclose(run.stress_nodal[at[26]], np.abs(_rows(beam, 12, 26)[:, 0, fibre]).max(axis=1))  # CBEAM end

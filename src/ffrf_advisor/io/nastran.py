@@ -1,18 +1,13 @@
-"""Nastran SOL 103 results: ``.op2`` written with ``PARAM,POST,-1`` (geometry included), read with pyNastran
-(the optional extra ``ffrf-advisor[nastran]``); docs/format.md says what to request from Nastran.
+"""Nastran SOL 103 results: ``.op2`` read with pyNastran (the optional extra ``ffrf-advisor[nastran]``);
+docs/format.md says what to request from Nastran.
 
 Grids only (scalar points dropped); positions and mode components turned from each grid's CD frame to
-basic (rectangular frames). Eigenvalues and generalised masses from the eigenvalue table; modes scaled by
-the generalised mass and checked against the mass assembled here (theory 3b):
-- CONM2: mass and inertia at its CG (an offset CG becomes a node moving rigidly with its grid);
-- CBAR, CBEAM, CROD, CONROD, CTUBE: half the element mass (with non-structural mass) at each end; CBEAM
-  also half its torsional inertia rho J L about its axis;
-- CQUAD4, CQUADR, CQUAD8, CTRIA3, CTRIAR, CTRIA6: the element mass shared equally by its nodes;
-- CHEXA with 8 or 20 nodes: the consistent mass of the FE module;
-- springs, dampers and rigid elements carry no mass; any other element is refused by name.
-The run must be free-free (six rigid-body modes, which are dropped), or come with the free body's MAAX and
-KAAX punched beside it (``nastran_dmig``; then it is brought to free-free form, theory 4); MAAX, when
-there, replaces the assembled mass. Stresses: von Mises averaged at the grids (``nodal_stress``).
+basic (rectangular frames); the geometry from the OP2 (``PARAM,POST,-1``), else from the input deck beside
+it. Eigenvalues and generalised masses from the eigenvalue table; modes scaled by the generalised masses and
+checked against the 6-DOF nodal mass (theory 3b): the nodal form of MAAX punched beside the OP2
+(``nastran_dmig``), else the mass assembled from the elements (``nastran_mass``). The run must be
+free-free (six rigid-body modes, which are dropped), or come with the free body's MAAX and KAAX: then it is
+brought to free-free form (theory 4). Stresses: von Mises averaged at the grids (``nastran_stress``).
 """
 from __future__ import annotations
 
@@ -28,11 +23,14 @@ import scipy.sparse as sp
 
 from ..body import FlexibleBody, ModalFE, NodalRotary, Provenance
 from ..errors import BodyFileError, FFRFError
-from ..fe.assembly import full_mass, mass_matrix
+from ..fe.assembly import full_mass
 from ..fe.modal import mode_signs
 from ..fe.mesh import Mesh
-from . import Format, guard, nastran_dmig, register
 from ..transform import free_surface_ritz
+from . import Format, guard, nastran_dmig, register
+from .nastran_mass import (NodalMass, assembled_mass, generalized_mass_error, modes_with_extra_nodes,
+                           rotary_share)
+from .nastran_stress import nodal_stress
 from .limits import check_file_size
 
 RIGID_TOL = 1e-10  # |lambda| / largest |lambda| below which a mode is rigid (a frequency ratio of 1e-5) ...
@@ -40,14 +38,9 @@ RIGID_HZ = 1e-2    # ... or a frequency below this (a run whose modes are all ~0
 N_RIGID = 6
 GENMASS_TOL = 1e-4  # assembled against Nastran's generalised masses: float32 modes reach ~1e-7
 FREE_K_TOL = 1e-6  # |K r| / |K| |r| of a free body's K: round-off of the punch's 16-digit fields, summed
-LINES = ("CBAR", "CBEAM", "CROD", "CONROD", "CTUBE")
-SHELLS = ("CQUAD4", "CQUADR", "CQUAD8", "CTRIA3", "CTRIAR", "CTRIA6")
-MASSLESS = ("CELAS1", "CELAS2", "CELAS3", "CELAS4", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CVISC", "CBUSH",
-            "CBUSH1D", "CGAP", "PLOTEL")
 PUNCH = (".pch", ".PCH")  # where PARAM,EXTOUT,DMIGPCH puts MAAX and KAAX
 DECK = (".bdf", ".dat", ".nas", ".BDF", ".DAT", ".NAS")  # the input deck, for the geometry
 DECK_FACTOR = 16  # bytes of pyNastran's card objects per byte of deck
-HEX20 = list(range(12)) + list(range(16, 20)) + list(range(12, 16))  # Nastran CHEXA20 -> VTK node order
 
 
 @dataclass
@@ -88,7 +81,7 @@ def _load(path):
                             f"{type(e).__name__}: {' '.join(str(e).split())[:160]}") from None
 
 
-def parse(path, free_free: bool = False) -> tuple[NastranModes, "NodalMass", nastran_dmig.Matrices | None]:
+def parse(path, free_free: bool = False) -> tuple[NastranModes, NodalMass, nastran_dmig.Matrices | None]:
     """The run of ``path``, its nodal mass and the matrices punched beside it, parsed in a guarded child
     (io.guard); with ``free_free`` a run that is not free-free and cannot be transformed (no MAAX and KAAX)
     is refused before its elements are looked at. The geometry comes from the OP2, else from the input
@@ -193,189 +186,6 @@ def _frames(path, m, gids: np.ndarray) -> np.ndarray:
                                 f"{coord.type} {cd}")
         F[k] = np.asarray(coord.transform_vector_to_global(np.eye(3)), dtype=float).T
     return F
-
-
-# ---------------------------------------------------------------- modal stresses
-def nodal_stress(m, nm: int, grids: np.ndarray) -> np.ndarray | None:
-    """Per mode, the von Mises stress at each grid (n, nm), averaged over the elements that share the grid.
-
-    An element gives its corner values where Nastran wrote them (``STRESS(CORNER)``: solids, shells; beam
-    ends; bar ends), else its one value to each of its grids. Per element and grid the largest over fibres is
-    taken; bars and beams give their largest |fibre stress|, rods sqrt(axial^2 + 3 torsion^2). Values, not
-    tensors, are averaged: Nastran gives shell tensors in each element's own frame.
-    """
-    index = {int(g): i for i, g in enumerate(grids)}
-    samples = [s for name in m.op2_results.stress.get_table_types()
-               for obj in getattr(m.op2_results.stress, name.split(".")[-1]).values() if obj.data.shape[0] == nm
-               for s in _samples(m, obj, index)]
-    if not samples:
-        return None
-    pairs = np.column_stack([np.concatenate([s[0] for s in samples]), np.concatenate([s[1] for s in samples])])
-    values = np.concatenate([s[2] for s in samples], axis=1)
-    keys, which = np.unique(pairs, axis=0, return_inverse=True)
-    per_pair = np.zeros((len(keys), nm))
-    np.maximum.at(per_pair, which.ravel(), values.T)  # the largest over fibres, layers and duplicate rows
-    total, count = np.zeros((len(grids), nm)), np.zeros(len(grids))
-    np.add.at(total, keys[:, 1], per_pair)
-    np.add.at(count, keys[:, 1], 1)
-    return total / np.maximum(count, 1)[:, None]
-
-
-def _samples(m, obj, index: dict) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """(element ids, grid indices, values (nm, k)) of one stress table, corner rows where present."""
-    headers = obj.get_headers()
-    data = np.asarray(obj.data, dtype=float)
-
-    def largest(*names):
-        cols = [headers.index(h) for h in names if h in headers]
-        return np.abs(data[:, :, cols]).max(axis=2) if cols else None
-
-    if not getattr(obj, "is_von_mises", True):
-        return []
-    if hasattr(obj, "element_node"):
-        value = largest("von_mises", "ovm")
-        value = largest("smax", "smin") if value is None else value
-        if value is None:
-            return []
-        eids, nids = obj.element_node[:, 0], obj.element_node[:, 1]
-        corner = nids > 0
-        centre = ~corner & ~np.isin(eids, eids[corner])
-        return [_at_grids(eids[corner], nids[corner], value[:, corner], index),
-                _spread(m, eids[centre], value[:, centre], index)]
-    if not hasattr(obj, "element"):
-        return []
-    if "smaxa" in headers:  # bars: end A at the first grid, end B at the second
-        ends = [[m.elements[int(e)].node_ids[k] for e in obj.element] for k in (0, 1)]
-        return [_at_grids(obj.element, np.array(ends[k]), largest(*cols), index)
-                for k, cols in ((0, ("smaxa", "smina")), (1, ("smaxb", "sminb")))]
-    if "axial" in headers and "torsion" in headers:
-        axial, torsion = (data[:, :, headers.index(h)] for h in ("axial", "torsion"))
-        return [_spread(m, obj.element, np.sqrt(axial**2 + 3 * torsion**2), index)]
-    return []
-
-
-def _at_grids(eids, nids, value: np.ndarray, index: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The rows at grids of the run (scalar points and others dropped)."""
-    known = np.array([int(g) in index for g in nids], dtype=bool)
-    grid = np.array([index[int(g)] for g in np.asarray(nids)[known]], dtype=np.int64)
-    return np.asarray(eids)[known], grid, value[:, known]
-
-
-def _spread(m, eids, value: np.ndarray, index: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """An element's one value given to each of its grids."""
-    rows = [(k, g) for k, e in enumerate(eids) for g in m.elements[int(e)].node_ids if g]
-    take = np.array([k for k, _ in rows], dtype=np.int64)
-    return _at_grids(np.asarray(eids)[take], np.array([g for _, g in rows]), value[:, take], index)
-
-
-# ---------------------------------------------------------------- mass (theory 3b)
-@dataclass
-class NodalMass:
-    """Scalar translational mass over the grids (+ offset CG nodes), nodal rotary inertia, extra nodes."""
-
-    Ms: sp.csr_array
-    J: np.ndarray                 # (n + k, 3, 3)
-    extra_points: np.ndarray      # (k, 3) CG of offset CONM2s
-    extra_of: np.ndarray          # (k,) the grid index each moves with
-    notes: list[str]
-    what: str = "the assembled mass"
-
-
-def assembled_mass(path, m, run: NastranModes) -> NodalMass:
-    """The mass of the elements and point masses of ``m`` over the grids of ``run`` (theory 3b)."""
-    index = {int(g): i for i, g in enumerate(run.grids)}
-    n = len(run.grids)
-    diag, J = np.zeros(n), np.zeros((n, 3, 3))
-    solids = _element_mass(path, m, run, index, diag, J)
-    extra = _point_masses(path, m, run, index, diag, J)
-    k = len(extra)
-    Ms = sp.diags_array(np.concatenate([diag, [e[2] for e in extra]])).tocsr()
-    for (cell, rho), conns in solids.items():
-        hexes = Mesh(run.points, {cell: np.array(conns)})
-        Ms = Ms + sp.block_diag([mass_matrix(hexes, rho), sp.csr_array((k, k))]).tocsr()
-    notes = [f"mass assembled from {', '.join(f'{v} {t}' for t, v in run.element_types.items())}"
-             + (f"; {k} CONM2 with an offset CG as nodes moving rigidly with their grid" if k else "")]
-    return NodalMass(sp.csr_array(Ms), np.concatenate([J, np.array([e[3] for e in extra]).reshape(k, 3, 3)]),
-                         np.array([e[0] for e in extra]).reshape(k, 3), np.array([e[1] for e in extra], np.int64),
-                         notes)
-
-
-def _element_mass(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: np.ndarray) -> dict:
-    """Lumped line and shell masses into ``diag`` and ``J``; the CHEXA connectivities by (cell type, rho)."""
-    refused = sorted({e.type for e in m.elements.values()} - set(LINES) - set(SHELLS) - set(MASSLESS) - {"CHEXA"})
-    if refused:
-        raise BodyFileError(path, "elements", "element types whose mass the reader assembles (docs/format.md)",
-                            ", ".join(refused))
-    solids: dict[tuple[str, float], list] = {}
-    for e in m.elements.values():
-        if e.type in MASSLESS:
-            continue
-        nodes = [index[g] for g in e.node_ids if g is not None]
-        if e.type == "CHEXA":
-            _hexa(path, e, nodes, solids)
-        elif e.type in LINES:
-            a, b = nodes[:2]
-            diag[[a, b]] += float(e.Mass()) / 2
-            if e.type == "CBEAM":  # half the torsional inertia rho J L at each end, about the axis
-                axis = (run.points[b] - run.points[a]) / e.Length()
-                torsion = e.pid_ref.mid_ref.rho * np.atleast_1d(e.pid_ref.J())[0] * e.Length() / 2
-                J[[a, b]] += torsion * np.outer(axis, axis)
-        else:
-            diag[nodes] += float(e.Mass()) / len(nodes)
-    return solids
-
-
-def _point_masses(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: np.ndarray) -> list[tuple]:
-    """CONM2 at their grid into ``diag`` and ``J``; those with an offset CG as (CG, grid index, mass, inertia)."""
-    extra = []
-    for c in m.masses.values():
-        if c.type != "CONM2":
-            raise BodyFileError(path, "masses", "CONM2 point masses", c.type)
-        i = index[c.nid]
-        cg, inertia = np.asarray(c.Centroid(), dtype=float), np.asarray(c.Inertia(), dtype=float)
-        if np.linalg.norm(cg - run.points[i]) <= 1e-12 * max(1.0, np.abs(run.points).max()):
-            diag[i] += c.mass
-            J[i] += inertia
-        else:
-            extra.append((cg, i, c.mass, inertia))
-    return extra
-
-
-def _hexa(path, e, nodes: list[int], solids: dict) -> None:
-    if len(nodes) not in (8, 20):
-        raise BodyFileError(path, f"CHEXA {e.eid}", "8 or 20 nodes", str(len(nodes)))
-    cell = "hexahedron" if len(nodes) == 8 else "hexahedron20"
-    order = nodes if len(nodes) == 8 else [nodes[i] for i in HEX20]
-    solids.setdefault((cell, float(e.pid_ref.mid_ref.rho)), []).append(order)
-
-
-# ---------------------------------------------------------------- the body
-def modes_with_extra_nodes(run: NastranModes, mass: NodalMass) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Points, translations and rotations with the offset-CG nodes appended: u = u_g + theta_g x (x - x_g)."""
-    g = mass.extra_of
-    arm = mass.extra_points - run.points[g]
-    T = np.concatenate([run.T, run.T[g] + np.cross(run.R[g], arm[:, :, None], axisa=1, axisb=1, axisc=1)])
-    return np.concatenate([run.points, mass.extra_points]), T, np.concatenate([run.R, run.R[g]])
-
-
-def modal_mass_parts(run: NastranModes, mass: NodalMass) -> tuple[np.ndarray, np.ndarray]:
-    """Per mode of the file, the translational sum Phi^T Ms Phi and the rotary sum Phi*^T J Phi* (theory 3b)."""
-    _, T, R = modes_with_extra_nodes(run, mass)
-    n, _, nm = T.shape
-    trans = np.einsum("iap,iap->p", T, (mass.Ms @ T.reshape(n, 3 * nm)).reshape(n, 3, nm))
-    return trans, np.einsum("iap,iab,ibp->p", R, mass.J, R)
-
-
-def generalized_mass_error(run: NastranModes, mass: NodalMass) -> np.ndarray:
-    """Per mode, (assembled modal mass) / (Nastran's generalised mass) - 1."""
-    trans, rot = modal_mass_parts(run, mass)
-    return (trans + rot) / run.generalized_mass - 1
-
-
-def rotary_share(run: NastranModes, mass: NodalMass) -> np.ndarray:
-    """Per mode, the share of the modal mass that is rotary inertia (1 for a pure torsion of beam nodes)."""
-    trans, rot = modal_mass_parts(run, mass)
-    return np.divide(rot, trans + rot, out=np.zeros_like(rot), where=trans + rot > 0)
 
 
 def rigid(lam: np.ndarray) -> np.ndarray:

@@ -230,7 +230,9 @@ def test_a_sample_with_its_mass_punched_as_dmig_in_turned_frames_reads_back_with
     frame = Rotation.from_rotvec([0.3, -0.5, 0.8]).as_matrix()  # every grid's CD: modes and DMIG in it
     path = tmp_path / "beam.op2"
     _sample_op2(body, path, frame)
-    M = nastran_dmig.nodal_matrix(body.fe.Ms, np.zeros((body.fe.mesh.n_nodes, 3, 3)))
+    n = body.fe.mesh.n_nodes
+    M = nastran_dmig.nodal_matrix(nastran_mass.NodalMass(body.fe.Ms, np.zeros((n, 3, 3)), np.zeros((0, 3)),
+                                                         np.zeros(0, np.int64), []), body.fe.mesh.points)
     _write_punch(tmp_path / "beam.pch", {"MAAX": M}, frame)
     back = read_body(path)
     notes = " ".join(back.provenance.notes)
@@ -287,8 +289,7 @@ def test_the_space_frame_stiffness_has_the_six_rigid_modes_in_its_null_space():
 
 def _frame_body(run, K, M):
     mats = nastran_dmig.Matrices("frame.pch", sp.csr_array(M), sp.csr_array(K))
-    Ms, J = nastran_dmig.nodal_form(mats.M)
-    mass = nastran_mass.NodalMass(Ms, J, np.zeros((0, 3)), np.zeros(0, np.int64), [], "the nodal form of MAAX")
+    mass = nastran_dmig.nodal_form(mats.M, run.points, "frame.pch")
     return nastran.body_of("frame.op2", run, mass, mats)
 
 
@@ -317,11 +318,38 @@ def test_the_matrices_of_a_constrained_model_are_refused_naming_the_punch():
         _frame_body(_clamped_run(points, K, M, 5), K, M)
 
 
-def test_a_mass_with_couplings_the_body_model_cannot_hold_is_reported():
+def _rigid_inertia(M: np.ndarray, points: np.ndarray) -> tuple[float, np.ndarray]:
+    """Mass and principal moments of a 6-DOF mass from its rigid-body modes about the CoM (independent of the
+    nodal form): the CoM is where the translation-rotation block of R^T M R vanishes."""
+    R = nastran_dmig.rigid_modes_6(points)
+    A = R.T @ M @ R
+    m = np.trace(A[:3, :3]) / 3
+    c_tilde = -A[:3, 3:] / m  # A_tr(c) = A_tr(0) + m c~
+    c = np.array([c_tilde[2, 1], c_tilde[0, 2], c_tilde[1, 0]])
+    Rc = nastran_dmig.rigid_modes_6(points - c)[:, 3:]
+    return m, np.linalg.eigvalsh(Rc.T @ M @ Rc)
+
+
+def test_a_mass_off_its_grid_in_maax_becomes_a_node_that_moves_with_it_exactly():
     points, K, M = _space_frame()
     m, arm = 5 * M[0, 0], np.array([0.0, 30.0, 0.0])  # a point mass 30 mm off node 3: u = u_3 + theta_3 x arm
     L = np.column_stack([np.eye(3), -np.cross(np.eye(3), arm)])  # (3 x 6): its velocity from node 3's six
     M[18:24, 18:24] += m * L.T @ L
+    body = _frame_body(_clamped_run(points, K, M, K.shape[0] - 6), K, M)
+    notes = " ".join(body.provenance.notes)
+    assert "1 grids' mass off the grid" in notes and "warning" not in notes
+    mass, moments = _rigid_inertia(M, points)
+    assert body.mass == pytest.approx(mass, rel=1e-13)
+    assert np.allclose(np.linalg.eigvalsh(body.I0), moments, rtol=1e-12)
+    assert np.allclose(body.integrals.modal_mass(), np.eye(body.nf), atol=1e-10)  # the extra node's kinematics
+
+
+def test_a_mass_with_couplings_the_body_model_cannot_hold_is_reported():
+    points, K, M = _space_frame()
+    mu = 2 * M[0, 0]  # the first element's mass, made consistent along basic x only: [[2, 1], [1, 2]] mu / 6
+    M[0, 0] += -mu / 6
+    M[6, 6] += -mu / 6
+    M[0, 6] = M[6, 0] = mu / 6
     body = _frame_body(_clamped_run(points, K, M, K.shape[0] - 6), K, M)
     assert any("warning: it couples DOFs" in note for note in body.provenance.notes)
 

@@ -108,10 +108,7 @@ def _parse_and_assemble(path, pch: str | None, deck: str | None, free_free: bool
         _require_free_free(path, run.eigenvalues, mats)
     if mats is None or mats.M is None:
         return run, assembled_mass(path, m, run), mats
-    Ms, J = nastran_dmig.nodal_form(mats.M)
-    return run, NodalMass(Ms, J, np.zeros((0, 3)), np.zeros(0, np.int64),
-                          [f"mass from DMIG {nastran_dmig.MASS} of {os.path.basename(pch)}"],
-                          f"the nodal form of {nastran_dmig.MASS}"), mats
+    return run, nastran_dmig.nodal_form(mats.M, run.points, pch), mats
 
 
 def _geometry_from_deck(m, deck: str) -> None:
@@ -221,7 +218,7 @@ def body_of(path, run: NastranModes, mass: NodalMass, mats: nastran_dmig.Matrice
     scale = 1 / np.sqrt(run.generalized_mass[flex])
     notes += _mass_notes(run, mass, flex)
     if mats is not None:
-        notes += _matrix_notes(run, flex, scale, mats)
+        notes += _matrix_notes(run, flex, scale, mass, mats)
     has_rotary = np.abs(mass.J).max(axis=(1, 2)) > 0
     rotary = NodalRotary(np.flatnonzero(has_rotary), mass.J[has_rotary], R[has_rotary][:, :, flex] * scale)
     stress = None if run.stress_nodal is None else \
@@ -249,17 +246,18 @@ def _mass_notes(run: NastranModes, mass: NodalMass, flex: np.ndarray) -> list[st
                                                "or the body model cannot hold all of it, theory 3b)")]
 
 
-def _matrix_notes(run: NastranModes, flex: np.ndarray, scale: np.ndarray, mats: nastran_dmig.Matrices) -> list[str]:
+def _matrix_notes(run: NastranModes, flex: np.ndarray, scale: np.ndarray, mass: NodalMass,
+                  mats: nastran_dmig.Matrices) -> list[str]:
     """Checks of the run against the punched MAAX and KAAX (theory 3b, 4)."""
     V = nastran_dmig.six_dof(run.T, run.R)[:, flex] * scale
     notes = []
     if mats.M is not None:
         full = np.abs(np.einsum("ip,ip->p", V, mats.M @ V) - 1).max()
-        loss = nastran_dmig.rigid_mass_loss(mats.M, run.points)
+        loss = nastran_dmig.rigid_mass_loss(mats.M, mass, run.points)
         notes.append(f"{nastran_dmig.MASS} gives the generalised masses within {full:.2g}; its nodal form keeps "
                      f"its rigid-body mass within {loss:.2g}"
                      + ("" if loss <= GENMASS_TOL else " (warning: it couples DOFs the body model does not hold: "
-                                                       "consistent beam or offset masses, theory 3b)"))
+                                                       "consistent beam mass, anisotropic nodal mass, theory 3b)"))
     if mats.K is not None:
         rayleigh = np.einsum("ip,ip->p", V, mats.K @ V)
         lam = run.eigenvalues[flex]

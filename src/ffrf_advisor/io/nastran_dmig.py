@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 import warnings
 from dataclasses import dataclass
 
@@ -18,8 +19,10 @@ import scipy.sparse.linalg as spla
 
 from ..errors import BodyFileError
 from .limits import check_file_size
+from .nastran_mass import NodalMass
 
 MASS, STIFFNESS = "MAAX", "KAAX"
+OFFSET_TOL = 1e-9  # a grid block as a rigid mass off the grid, to the punch's 11 significant digits
 PUNCH_FACTOR = 8  # bytes of pyNastran's card objects per byte of punch (16-character fields, two lines a term)
 
 
@@ -120,36 +123,86 @@ def rigid_modes_6(X: np.ndarray) -> np.ndarray:
     return R.reshape(6 * n, 6)
 
 
-def nodal_form(M: sp.csr_array) -> tuple[sp.csr_array, np.ndarray]:
+def nodal_form(M: sp.csr_array, X: np.ndarray, source: str) -> NodalMass:
     """The part of a 6-DOF mass that the body model holds (theory 3b): the scalar mass Ms (n x n), the mean of
     the T1, T2, T3 blocks, and the nodal rotary inertia J (n, 3, 3), the diagonal blocks of the rotations.
-    Exact when M is ``Ms kron I3`` on the translations plus nodal J; other couplings are dropped."""
+
+    A grid whose 6 x 6 block is that of a rigid mass off the grid (``[[m I, -m a~], [m a~, J]]``, its
+    translations coupled to no other grid: lumped masses, CONM2 with an offset) becomes a node at x + a that
+    moves rigidly with the grid, with the inertia ``J - m a~^T a~`` about it: exact. Other couplings
+    (consistent beam mass) are dropped; ``rigid_mass_loss`` measures them.
+    """
     n = M.shape[0] // 6
+    B = _diagonal_blocks(M, n)
+    Ms = sp.csr_array(sum(M[np.arange(n) * 6 + c][:, np.arange(n) * 6 + c] for c in range(3)) / 3)
+    J = 0.5 * (B[:, 3:, 3:] + B[:, 3:, 3:].transpose(0, 2, 1))
+    off = _offset_nodes(M, B)
+    m = np.trace(B[off, :3, :3], axis1=1, axis2=2) / 3
+    a_tilde = -B[off, :3, 3:] / m[:, None, None]
+    a = np.stack([a_tilde[:, 2, 1], a_tilde[:, 0, 2], a_tilde[:, 1, 0]], axis=1)
+    J_cg = J[off] - m[:, None, None] * np.einsum("kba,kbc->kac", a_tilde, a_tilde)
+    Ms = Ms - sp.diags_array(np.bincount(off, weights=m, minlength=n).astype(float))
+    J[off] = 0.0
+    return NodalMass(sp.csr_array(sp.block_diag([Ms, sp.diags_array(m)])), np.concatenate([J, J_cg]),
+                     X[off] + a, off, [f"mass from DMIG {MASS} of {os.path.basename(source)}"
+                                       + (f"; {len(off)} grids' mass off the grid as nodes moving rigidly with it"
+                                          if len(off) else "")],
+                     f"the nodal form of {MASS}")
 
-    def block(a: int, b: int) -> sp.csr_array:
-        return M[np.arange(n) * 6 + a][:, np.arange(n) * 6 + b]
 
-    Ms = sp.csr_array(sum(block(c, c) for c in range(3)) / 3)
-    J = np.stack([np.stack([block(3 + a, 3 + b).diagonal() for b in range(3)], -1) for a in range(3)], 1)
-    return Ms, 0.5 * (J + J.transpose(0, 2, 1))
-
-
-def nodal_matrix(Ms: sp.csr_array, J: np.ndarray) -> sp.csr_array:
-    """The 6-DOF mass of the nodal form: Ms on each translation, J_i on the rotations of node i."""
-    n = Ms.shape[0]
-    trans = sp.kron(Ms, sp.diags_array([1.0, 1, 1, 0, 0, 0]))
-    rows = (6 * np.arange(n) + 3)[:, None, None] + np.arange(3)[None, :, None] + np.zeros((1, 1, 3), int)
-    rot = sp.csr_array((J.ravel(), (rows.ravel(), np.transpose(rows, (0, 2, 1)).ravel())), shape=(6 * n, 6 * n))
-    return sp.csr_array(trans + rot)
+def _diagonal_blocks(M: sp.csr_array, n: int) -> np.ndarray:
+    """Each grid's 6 x 6 block (n, 6, 6)."""
+    return np.stack([np.stack([M[np.arange(n) * 6 + a][:, np.arange(n) * 6 + b].diagonal() for b in range(6)], -1)
+                     for a in range(6)], 1)
 
 
-def rigid_mass_loss(M: sp.csr_array, X: np.ndarray) -> float:
-    """How much of the rigid-body mass matrix of M the nodal form loses: max |R^T (Mn - M) R| / max |R^T M R|,
+def _offset_nodes(M: sp.csr_array, B: np.ndarray) -> np.ndarray:
+    """Grids whose block is a rigid mass off the grid: translations m I, coupling -m a~ (skew), translations
+    coupled to no other grid (to the punch's 11 digits)."""
+    m = np.trace(B[:, :3, :3], axis1=1, axis2=2) / 3
+    C = B[:, :3, 3:]
+    scale = np.abs(C).max(axis=(1, 2))
+    coo = M.tocoo()
+    coupled = np.unique(coo.row[(coo.row % 6 < 3) & (coo.row // 6 != coo.col // 6) & (coo.data != 0)] // 6)
+    isotropic = np.abs(B[:, :3, :3] - m[:, None, None] * np.eye(3)).max(axis=(1, 2)) <= OFFSET_TOL * m
+    skew = np.abs(C + C.transpose(0, 2, 1)).max(axis=(1, 2)) <= OFFSET_TOL * scale
+    ok = (m > 0) & (scale > 0) & isotropic & skew
+    ok[coupled] = False
+    return np.flatnonzero(ok)
+
+
+def nodal_matrix(mass: NodalMass, X: np.ndarray) -> sp.csr_array:
+    """The 6-DOF mass over the grids that a nodal mass stands for: Ms on each translation, J_i on the rotations
+    of node i, and each extra node's mass and inertia carried to its grid (``L^T (m, J) L``, L = [[I, -a~],
+    [0, I]])."""
+    n = mass.Ms.shape[0] - len(mass.extra_of)
+    k = len(mass.extra_of)
+    trans = sp.kron(mass.Ms, sp.diags_array([1.0, 1, 1, 0, 0, 0]))
+    rows = (6 * np.arange(n + k) + 3)[:, None, None] + np.arange(3)[None, :, None] + np.zeros((1, 1, 3), int)
+    rot = sp.csr_array((mass.J.ravel(), (rows.ravel(), np.transpose(rows, (0, 2, 1)).ravel())),
+                       shape=(6 * (n + k), 6 * (n + k)))
+    carry = _carry(mass, X)
+    return sp.csr_array(carry.T @ (trans + rot) @ carry)
+
+
+def _carry(mass: NodalMass, X: np.ndarray) -> sp.csr_array:
+    """DOFs of the grids X and extra nodes from the grids' DOFs (6 (n + k) x 6 n): u = u_g - a~ theta_g."""
+    n, k = len(X), len(mass.extra_of)
+    L = np.tile(np.eye(6), (k, 1, 1))
+    L[:, :3, 3:] = -np.cross(np.eye(3)[None], (mass.extra_points - X[mass.extra_of])[:, None, :])  # -a~
+    rows = 6 * (n + np.arange(k))[:, None, None] + np.arange(6)[None, :, None] + np.zeros((1, 1, 6), int)
+    cols = 6 * mass.extra_of[:, None, None] + np.arange(6)[None, None, :] + np.zeros((1, 6, 1), int)
+    extra = sp.csr_array((L.ravel(), (rows.ravel(), cols.ravel())), shape=(6 * (n + k), 6 * n))
+    return sp.csr_array(sp.eye_array(6 * (n + k), 6 * n) + extra)
+
+
+def rigid_mass_loss(M: sp.csr_array, mass: NodalMass, X: np.ndarray) -> float:
+    """How much of the rigid-body mass matrix of M the nodal mass loses: max |R^T (Mn - M) R| / max |R^T M R|,
     with the rotations of the rigid modes R scaled by the body's size (dimensionless)."""
     R = rigid_modes_6(X - X.mean(axis=0))
     R[:, 3:] /= max(np.ptp(X, axis=0).max(), np.finfo(float).tiny)
     full = R.T @ (M @ R)
-    nodal = R.T @ (nodal_matrix(*nodal_form(M)) @ R)
+    nodal = R.T @ (nodal_matrix(mass, X) @ R)
     return float(np.abs(nodal - full).max() / np.abs(full).max())
 
 

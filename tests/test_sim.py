@@ -182,6 +182,23 @@ def test_compiled_and_numpy_right_hand_sides_agree(bodies, rng):
             assert np.abs(got - ref).max() <= 1e-13 * np.abs(ref).max(), terms
 
 
+def test_states_side_by_side_give_what_each_state_gives_alone(bodies, rng):
+    """The linearisation evaluates all its difference columns as one batch: per state to round-off (1e-13)."""
+    body = bodies["genstruct1"]
+    nf = body.nf
+    A = rng.normal(size=(6, nf, nf))
+    for terms in (FULL, (*FULL, "geo_stiff"), tuple(t for t in IDS if rng.random() < 0.5)):
+        model = build_model(body, terms, damping=rng.uniform(0, 0.05, nf), G=A + A.transpose(0, 2, 1))
+        states = [_state(rng, body) for _ in range(4)]
+        tau, fext = rng.normal(size=(4, 3)), rng.normal(size=(4, nf))
+        q, qd, w = (np.array(v) for v in zip(*states))
+        wd, qdd = eq.accelerations(model, q, qd, w, tau, fext)
+        for k in range(4):
+            wd1, qdd1 = eq.accelerations(model, q[k], qd[k], w[k], tau[k], fext[k])
+            assert np.abs(wd[k] - wd1).max() <= 1e-13 * np.abs(wd1).max(), terms
+            assert np.abs(qdd[k] - qdd1).max() <= 1e-13 * np.abs(qdd1).max(), terms
+
+
 # ---------------------------------------------------------------- conservation
 def _drifts(model, run):
     s = summary(model, run, "t-mm-N-s")

@@ -17,8 +17,10 @@ SYM_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))  # the six centrifu
 
 
 def pairs_at(G: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """``G(w) = sum_kl w_k w_l G_kl`` from the six matrices of the load cases kl (theory 9)."""
-    return sum(w[k] * w[l] * (1 if k == l else 2) * g for (k, l), g in zip(SYM_PAIRS, G))
+    """``G(w) = sum_kl w_k w_l G_kl`` from the six matrices of the load cases kl (theory 9); w may carry
+    leading batch axes."""
+    w = np.asarray(w)
+    return sum((w[..., k] * w[..., l] * (1 if k == l else 2))[..., None, None] * g for (k, l), g in zip(SYM_PAIRS, G))
 
 
 def rotated_pairs(G: np.ndarray, R: np.ndarray) -> np.ndarray:

@@ -1,7 +1,8 @@
 """Plain-numpy right-hand side of the free-body FFRF equations for any term set (theory section 5).
 
 The reference the compiled kernels (``sim.kernels``) are tested against;
-readable rather than fast. State ``y = [p, w, q, q']``: unit quaternion
+readable rather than fast. The force and acceleration functions take
+states with leading batch axes too (the linearisation's difference columns). State ``y = [p, w, q, q']``: unit quaternion
 ``p`` (scalar first, body to inertial), body angular velocity ``w``, modal
 coordinates and velocities. Translation decouples for a free body
 (``m a_cm = F``, free-surface modes and CoM origin) and is not integrated.
@@ -27,8 +28,18 @@ EYE3 = np.eye(3)
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``a x b`` of two 3-vectors (np.cross costs ten times as much on vectors this small)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    """``a x b`` of 3-vectors on the last axis (np.cross costs ten times as much on vectors this small)."""
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1], a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
+def mv(A: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``A x`` for matrices and vectors on the last axes."""
+    return np.einsum("...ij,...j->...i", A, x)
+
+
+def _identity_times(c: np.ndarray) -> np.ndarray:
+    return c[..., None, None] * EYE3
 
 
 def split(y: np.ndarray, nf: int):
@@ -43,8 +54,8 @@ def quaternion_rate(p: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 def linear_inertia(m: Model, q: np.ndarray) -> np.ndarray:
     """``W1 Qf = 2 tr(C1) I - C1 - C1^T``, ``C1[k, l] = Ibar[k, l] . q``."""
-    C1 = m.Ibar @ q
-    return 2 * np.trace(C1) * EYE3 - C1 - C1.T
+    C1 = np.einsum("klr,...r->...kl", m.Ibar, q)
+    return _identity_times(2 * np.trace(C1, axis1=-2, axis2=-1)) - C1 - np.swapaxes(C1, -1, -2)
 
 
 def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray) -> np.ndarray:
@@ -52,19 +63,19 @@ def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray) -> np.ndarray:
 
     ``q = r`` gives ``J2 = Qf^T W2 Qf``; ``(q', q)`` gives half of ``dJ2/dt``.
     """
-    G = np.einsum("r,abrs,s->ab", q, m.Sbar, r)
-    G = 0.5 * (G + G.T)
-    return np.trace(G) * EYE3 - G
+    G = np.einsum("...r,abrs,...s->...ab", q, m.Sbar, r)
+    G = 0.5 * (G + np.swapaxes(G, -1, -2))
+    return _identity_times(np.trace(G, axis1=-2, axis2=-1)) - G
 
 
 def coupling_matrix(m: Model, q: np.ndarray) -> np.ndarray:
     """``C = Qf^T W3`` (3 x nf): rows ``W3k[k]^T q``."""
-    return np.einsum("krs,r->ks", m.W3k, q)
+    return np.einsum("krs,...r->...ks", m.W3k, q)
 
 
 def inertia(m: Model, q: np.ndarray) -> np.ndarray:
     """``I_TT`` of the term set: I0, plus W1 Qf with inertia_lin, plus J2 with inertia_quad."""
-    J = np.array(m.I0, float)
+    J = np.broadcast_to(np.asarray(m.I0, float), (*q.shape[:-1], 3, 3)).copy()
     if m.on("inertia_lin"):
         J += linear_inertia(m, q)
     if m.on("inertia_quad"):
@@ -74,40 +85,46 @@ def inertia(m: Model, q: np.ndarray) -> np.ndarray:
 
 def rotational_force(m: Model, q, qd, w, tau) -> np.ndarray:
     """Right side of the rotational equations: torque, gyroscopic and Coriolis terms of the set."""
-    f = tau - cross(w, inertia(m, q) @ w)
+    f = tau - cross(w, mv(inertia(m, q), w))
     if m.on("cor1"):
-        f -= linear_inertia(m, qd) @ w
+        f -= mv(linear_inertia(m, qd), w)
     if m.on("cor_quad"):
-        f -= 2 * quadratic_inertia(m, qd, q) @ w
+        f -= 2 * mv(quadratic_inertia(m, qd, q), w)
     if m.on("cor_coupling"):
-        f -= cross(w, coupling_matrix(m, q) @ qd)
+        f -= cross(w, mv(coupling_matrix(m, q), qd))
     return f
 
 
 def flexible_force(m: Model, q, qd, w, fext) -> np.ndarray:
     """Right side of the flexible equations: loads, stiffness, damping, centrifugal and Coriolis terms."""
     f = fext - m.eigenvalues * q - m.damping * qd
-    ww = np.outer(w, w)
+    ww = np.einsum("...k,...l->...kl", w, w)
+    w2 = np.einsum("...k,...k->...", w, w)[..., None]
     if m.on("cf1"):
-        f += (w @ w) * np.einsum("mmr->r", m.Ibar) - np.einsum("kl,klr->r", ww, m.Ibar)
+        f = f + w2 * np.einsum("mmr->r", m.Ibar) - np.einsum("...kl,klr->...r", ww, m.Ibar)
     if m.on("cf2"):
-        f += (w @ w) * np.einsum("mmrs,s->r", m.Sbar, q) - np.einsum("kl,lkrs,s->r", ww, m.Sbar, q)
+        f = f + w2 * np.einsum("mmrs,...s->...r", m.Sbar, q) - np.einsum("...kl,lkrs,...s->...r", ww, m.Sbar, q)
     if m.on("cor_coupling"):
-        f -= 2 * coupling_matrix(m, qd).T @ w
+        f = f - 2 * np.einsum("...ks,...k->...s", coupling_matrix(m, qd), w)
     if m.on("geo_stiff"):
-        f -= pairs_at(m.G, w) @ q
+        f = f - mv(pairs_at(m.G, w), q)
     return f
 
 
 def accelerations(m: Model, q, qd, w, tau, fext):
-    """(w', q'') of the free body: block solve, Schur complement on the 3 x 3 block with coupling."""
+    """(w', q'') of the free body: block solve, Schur complement on the 3 x 3 block with coupling. Every
+    argument may carry leading batch axes (states side by side)."""
     fr, ff = rotational_force(m, q, qd, w, tau), flexible_force(m, q, qd, w, fext)
     J = inertia(m, q)
     if not m.on("coupling"):
-        return np.linalg.solve(J, fr), ff
+        return _solve(J, fr), ff
     C = coupling_matrix(m, q)
-    wd = np.linalg.solve(J - C @ C.T, fr - C @ ff)
-    return wd, ff - C.T @ wd
+    wd = _solve(J - C @ np.swapaxes(C, -1, -2), fr - mv(C, ff))
+    return wd, ff - np.einsum("...ks,...k->...s", C, wd)
+
+
+def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.linalg.solve(A, b[..., None])[..., 0]
 
 
 def rhs(m: Model, t: float, y: np.ndarray, tau=None, fext=None, prescribed=None) -> np.ndarray:

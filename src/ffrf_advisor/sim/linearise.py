@@ -40,28 +40,23 @@ def static_deflection(model: Model, w: np.ndarray) -> np.ndarray:
     """``q`` with ``flexible_force(q, 0, w) = 0``: the centrifugal deflection of the term set at spin w."""
     nf, zero = model.nf, np.zeros(model.nf)
     f0 = eq.flexible_force(model, zero, zero, w, zero)
-    K = -np.array([eq.flexible_force(model, e, zero, w, zero) - f0 for e in np.eye(nf)]).T
+    K = -(eq.flexible_force(model, np.eye(nf), np.zeros((nf, nf)), np.tile(w, (nf, 1)), zero) - f0).T
     return np.linalg.solve(K, f0)
 
 
-def _rate(model: Model, x: np.ndarray) -> np.ndarray:
-    """d(w, q, q')/dt at x = (w, q, q')."""
-    y = np.concatenate(([1.0, 0.0, 0.0, 0.0], x))
-    return eq.rhs(model, 0.0, y)[4:]
+def _rates(model: Model, x: np.ndarray) -> np.ndarray:
+    """d(w, q, q')/dt at the states x (..., 3 + 2 nf) of a free body without loads."""
+    nf = model.nf
+    w, q, qd = x[..., :3], x[..., 3:3 + nf], x[..., 3 + nf:]
+    wd, qdd = eq.accelerations(model, q, qd, w, np.zeros(3), np.zeros(nf))
+    return np.concatenate([wd, qd, qdd], axis=-1)
 
 
 def jacobian(model: Model, x: np.ndarray) -> np.ndarray:
-    """Central-difference Jacobian of the rates of (w, q, q') at x."""
-    n = len(x)
-    J = np.empty((n, n))
-    scale = np.maximum(np.abs(x), _coordinate_scales(model, x))
-    for j in range(n):
-        h = 1e-6 * scale[j]
-        xp, xm = x.copy(), x.copy()
-        xp[j] += h
-        xm[j] -= h
-        J[:, j] = (_rate(model, xp) - _rate(model, xm)) / (2 * h)
-    return J
+    """Central-difference Jacobian of the rates of (w, q, q') at x, all columns in one batched evaluation."""
+    h = 1e-6 * np.maximum(np.abs(x), _coordinate_scales(model, x))
+    step = np.diag(h)
+    return ((_rates(model, x + step) - _rates(model, x - step)) / (2 * h)[:, None]).T
 
 
 def _coordinate_scales(model: Model, x: np.ndarray) -> np.ndarray:

@@ -11,10 +11,7 @@ brought to free-free form (theory 4). Stresses: von Mises averaged at the grids 
 """
 from __future__ import annotations
 
-import contextlib
-import io
 import os
-import warnings
 from collections import Counter
 from dataclasses import dataclass
 
@@ -32,6 +29,7 @@ from .nastran_mass import (NodalMass, assembled_mass, generalized_mass_error, mo
                            rotary_share)
 from .nastran_stress import nodal_stress
 from .limits import check_file_size
+from .pynastran import quietly
 
 RIGID_TOL = 1e-10  # |lambda| / largest |lambda| below which a mode is rigid (a frequency ratio of 1e-5) ...
 RIGID_HZ = 1e-2    # ... or a frequency below this (a run whose modes are all ~0)
@@ -58,27 +56,13 @@ class NastranModes:
     stress_nodal: np.ndarray | None = None  # (n, nm) von Mises averaged at the grids
 
 
-def _pynastran():
+def _load(path):
+    """pyNastran's model of the OP2 with its geometry."""
     try:
         from pyNastran.op2.op2_geom import read_op2_geom
     except ImportError:
         raise FFRFError("the Nastran reader needs pyNastran: pip install 'ffrf-advisor[nastran]'") from None
-    return read_op2_geom
-
-
-def _load(path):
-    """pyNastran's model of the OP2 with its geometry, its log and warnings silenced (ours is one line)."""
-    read_op2_geom = _pynastran()
-    from cpylog import SimpleLogger
-
-    try:
-        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), \
-                contextlib.redirect_stderr(io.StringIO()):
-            warnings.simplefilter("ignore")
-            return read_op2_geom(str(path), debug=None, log=SimpleLogger(level="critical"))
-    except (Exception, SystemExit) as e:  # pyNastran raises many kinds on a damaged file (struct, assertions)
-        raise BodyFileError(path, "file", "an OP2 file pyNastran can read",
-                            f"{type(e).__name__}: {' '.join(str(e).split())[:160]}") from None
+    return quietly(path, "an OP2 file pyNastran can read", read_op2_geom, str(path), debug=None)
 
 
 def parse(path, free_free: bool = False) -> tuple[NastranModes, NodalMass, nastran_dmig.Matrices | None]:
@@ -113,19 +97,11 @@ def _parse_and_assemble(path, pch: str | None, deck: str | None, free_free: bool
 
 def _geometry_from_deck(m, deck: str) -> None:
     """Grids, frames, elements, properties, materials and masses of the input deck, into the OP2's model."""
-    from cpylog import SimpleLogger
     from pyNastran.bdf.bdf import read_bdf
 
     check_file_size(deck, DECK_FACTOR)
-    try:
-        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), \
-                contextlib.redirect_stderr(io.StringIO()):
-            warnings.simplefilter("ignore")
-            geometry = read_bdf(deck, xref=True, validate=False, punch=not _has_bulk_section(deck),
-                                log=SimpleLogger(level="critical"))
-    except (Exception, SystemExit) as e:  # a missing INCLUDE, a damaged card
-        raise BodyFileError(deck, "file", "an input deck pyNastran can read with its INCLUDE files",
-                            f"{type(e).__name__}: {' '.join(str(e).split())[:160]}") from None
+    geometry = quietly(deck, "an input deck pyNastran can read with its INCLUDE files", read_bdf, deck, xref=True,
+                       validate=False, punch=not _has_bulk_section(deck))
     for name in ("nodes", "coords", "elements", "masses", "properties", "materials"):
         setattr(m, name, getattr(geometry, name))
 
@@ -280,11 +256,11 @@ def free_surface_run(path, run: NastranModes, mass: NodalMass, mats: nastran_dmi
                             f"(|K r| / |K| |r| <= {FREE_K_TOL:g} for the rigid modes r)",
                             f"{residual:.2g}: the matrices of a constrained run lack its constrained DOFs")
     n, nm = len(run.grids), len(run.eigenvalues)
-    lam, S, dropped = free_surface_ritz(mats.M, mats.K, nastran_dmig.six_dof(run.T, run.R),
-                                        nastran_dmig.rigid_modes_6(run.points))
+    rigid6 = nastran_dmig.rigid_modes_6(run.points)
+    lam, S, dropped = free_surface_ritz(mats.M, mats.K, nastran_dmig.six_dof(run.T, run.R), rigid6)
     S = S.reshape(n, 6, -1)
     S = S * mode_signs(S[:, :3].reshape(3 * n, -1), full_mass(mass.Ms[:n, :n]), run.points)
-    rigid6 = nastran_dmig.rigid_modes_6(run.points).reshape(n, 6, 6)
+    rigid6 = rigid6.reshape(n, 6, 6)
     k = len(lam)
     out = NastranModes(run.grids, run.points, np.r_[np.zeros(N_RIGID), lam], np.ones(N_RIGID + k),
                        np.concatenate([rigid6[:, :3], S[:, :3]], axis=2),

@@ -7,10 +7,7 @@ DOFs of the a-set) have no entries: their mass and stiffness are condensed into 
 """
 from __future__ import annotations
 
-import contextlib
-import io
 import os
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +17,7 @@ import scipy.sparse.linalg as spla
 from ..errors import BodyFileError
 from .limits import check_file_size
 from .nastran_mass import NodalMass
+from .pynastran import quietly
 
 MASS, STIFFNESS = "MAAX", "KAAX"
 OFFSET_TOL = 1e-9  # a grid block as a rigid mass off the grid, to the punch's 11 significant digits
@@ -49,18 +47,10 @@ def read(pch: str, grids: np.ndarray, frames: np.ndarray) -> Matrices:
 
 
 def _load(pch: str) -> dict:
-    from cpylog import SimpleLogger
     from pyNastran.bdf.bdf import read_bdf
 
-    try:
-        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), \
-                contextlib.redirect_stderr(io.StringIO()):
-            warnings.simplefilter("ignore")
-            return read_bdf(pch, punch=True, xref=False, validate=False, read_cards=["DMIG"],
-                            log=SimpleLogger(level="critical")).dmig
-    except (Exception, SystemExit) as e:  # pyNastran raises many kinds on a damaged card
-        raise BodyFileError(pch, "file", "a punch file pyNastran can read",
-                            f"{type(e).__name__}: {' '.join(str(e).split())[:160]}") from None
+    return quietly(pch, "a punch file pyNastran can read", read_bdf, pch, punch=True, xref=False, validate=False,
+                   read_cards=["DMIG"]).dmig
 
 
 def _matrix(pch: str, name: str, dmig, index: dict, T: sp.csr_array) -> sp.csr_array:

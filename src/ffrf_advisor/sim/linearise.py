@@ -40,7 +40,7 @@ def static_deflection(model: Model, w: np.ndarray) -> np.ndarray:
     """``q`` with ``flexible_force(q, 0, w) = 0``: the centrifugal deflection of the term set at spin w."""
     nf, zero = model.nf, np.zeros(model.nf)
     f0 = eq.flexible_force(model, zero, zero, w, zero)
-    K = -(eq.flexible_force(model, np.eye(nf), np.zeros((nf, nf)), np.tile(w, (nf, 1)), zero) - f0).T
+    K = -(eq.flexible_force(model, np.eye(nf), np.zeros((nf, nf)), w, zero) - f0).T  # a column per q = e_j
     return np.linalg.solve(K, f0)
 
 

@@ -86,7 +86,7 @@ def test_the_plate_misses_its_widening_until_augmented_and_then_passes_every_che
 
 def test_rule_II_takes_the_exact_widening_stress_and_warns_with_the_fix(plate):
     """The plate at 3000 rpm: the modes give ~1e-7 of sigma_allow, the static FE solution about 0.2."""
-    a = analyze(plate, Options(situation=Situation(w_op=100 * np.pi)))
+    a = analyze(plate, Options(situation=Situation(w_op=100 * np.pi, rules="thresholds")))
     rule = next(r for r in a.advice.rules if r.name == "widening")
     assert rule.fired and 0.15 < rule.value < 0.25 and "exact static FE solution" in rule.reason
     warned = [w for w in a.advice.warnings if "miss the centrifugal deflection" in w]

@@ -10,13 +10,19 @@ from ffrf_advisor.amplitudes import AmplitudeOptions, q_max
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.body import FlexibleBody
 from ffrf_advisor.errors import FFRFError
-from ffrf_advisor.guidelines import THRESHOLDS, Situation, parse_speed
+from ffrf_advisor import guidelines
+from ffrf_advisor.guidelines import THRESHOLDS, parse_speed
 from ffrf_advisor.invariants import ShapeIntegrals
 from ffrf_advisor.io import read_body
 from ffrf_advisor.significance import centrifugal_terms, coriolis_terms, significance
 from ffrf_advisor.units import SI, TMM, factor
 
 from .test_cli import SAMPLE
+
+
+def Situation(**kw) -> guidelines.Situation:
+    """These tests check the rules of theory 8 (``--rules thresholds``); tests/test_predict.py the default advice."""
+    return guidelines.Situation(rules="thresholds", **kw)
 
 NF = 2
 LAM = np.array([4e4, 1.6e5])  # Omega = 200, 400 rad/s
@@ -197,7 +203,7 @@ def test_dimensionless_outputs_are_unit_invariant(block_body):
 
 def test_slender_beam_is_III_with_quadratic_inertia_about_its_long_axis():
     beam = read_body(SAMPLE, load_fe=True)  # 40 x 20 x 1000 mm: length/width 25
-    result = analyze(beam)
+    result = analyze(beam, Options(situation=Situation()))
     sig = result.significance
     assert result.advice.level == "III" and "inertia_quad" in result.advice.terms
     assert np.unravel_index(np.argmax(sig.dI_Q), sig.dI_Q.shape)[0] == 2

@@ -23,7 +23,7 @@ def test_analyze_json_validates_against_the_schema():
     cases = {("III",): [], ("IV",): ["--speed", "3000rpm", "--connection", "soft"],
              ("I",): ["--q-max", ",".join(["0.05"] * 16)]}  # dI_Q = 0.27 (0.05 / 0.53)^2 = 2.4e-3 < 0.005
     for (level,), args in cases.items():
-        result = runner.invoke(app, ["analyze", str(SAMPLE), "--json", *args])
+        result = runner.invoke(app, ["analyze", str(SAMPLE), "--json", "--rules", "thresholds", *args])
         assert result.exit_code == 0, result.output
         data = json.loads(result.stdout)
         jsonschema.validate(data, SCHEMA)
@@ -45,14 +45,15 @@ def test_analyze_table_shows_level_first():
 
 def test_config_file_and_bad_options(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "ffrf-advisor.toml").write_text("[thresholds]\ndI_Q = 0.5\ndI_fT = 0.5\ndI_Tf = 0.5\n")
+    (tmp_path / "ffrf-advisor.toml").write_text("rules = 'thresholds'\n[thresholds]\ndI_Q = 0.5\ndI_fT = 0.5\n"
+                                                "dI_Tf = 0.5\n")
     result = runner.invoke(app, ["analyze", str(SAMPLE), "--json"])
     assert json.loads(result.stdout)["level"] == "I"
     (tmp_path / "ffrf-advisor.toml").write_text("[thresholds]\nbogus = 1\n")
     result = runner.invoke(app, ["analyze", str(SAMPLE)])
     assert result.exit_code == 2 and "bogus" in result.output
     (tmp_path / "ffrf-advisor.toml").unlink()
-    (tmp_path / "pyproject.toml").write_text("[tool.ffrf-advisor]\nconnection = 'stiff'\n")
+    (tmp_path / "pyproject.toml").write_text("[tool.ffrf-advisor]\nconnection = 'stiff'\nrules = 'thresholds'\n")
     assert json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--json"]).stdout)["level"] == "I"
     for bad in (["--speed", "fast"], ["--connection", "glued"], ["--threshold", "nope=1"], ["--q-max", "1,2"]):
         result = runner.invoke(app, ["analyze", str(SAMPLE), *bad])
@@ -61,12 +62,12 @@ def test_config_file_and_bad_options(tmp_path, monkeypatch):
 
 def test_gate_exit_codes_and_junit(tmp_path):
     junit = tmp_path / "gate.xml"
-    ok = runner.invoke(app, ["gate", str(SAMPLE), "--max-level", "III", "--junit", str(junit)])
+    ok = runner.invoke(app, ["gate", *AT_REST, str(SAMPLE), "--max-level", "III", "--junit", str(junit)])
     assert ok.exit_code == 0
     suite = ET.parse(junit).getroot()
     assert suite.get("tests") == "1" and suite.get("failures") == "0"
 
-    over = runner.invoke(app, ["gate", str(SAMPLE), str(SAMPLE), "--max-level", "II", "--junit", str(junit),
+    over = runner.invoke(app, ["gate", *AT_REST, str(SAMPLE), str(SAMPLE), "--max-level", "II", "--junit", str(junit),
                                "--jobs", "2"])
     assert over.exit_code == 1
     suite = ET.parse(junit).getroot()
@@ -75,15 +76,16 @@ def test_gate_exit_codes_and_junit(tmp_path):
 
     junk = tmp_path / "junk.ffrf.h5"
     junk.write_text("x")
-    bad = runner.invoke(app, ["gate", str(SAMPLE), str(junk), "--max-level", "IV", "--junit", str(junit), "--json"])
+    bad = runner.invoke(app, ["gate", *AT_REST, str(SAMPLE), str(junk), "--max-level", "IV", "--junit", str(junit), "--json"])
     assert bad.exit_code == 2
     assert ET.parse(junit).getroot().get("errors") == "1"
     data = json.loads(bad.stdout)
     assert [b["level"] for b in data["bodies"]] == ["III", None]
     assert runner.invoke(app, ["gate", str(SAMPLE), "--max-level", "V"]).exit_code == 2
-    assert runner.invoke(app, ["gate", str(SAMPLE)]).exit_code == 2  # usage: --max-level missing
+    assert runner.invoke(app, ["gate", *AT_REST, str(SAMPLE)]).exit_code == 2  # usage: --max-level missing
 
 
+AT_REST = ["--speed", "0rad/s", "--rules", "thresholds"]  # gate needs an operating point; these check theory 8's rules
 BAD_OPTIONS = [["--threshold", "dI_L=nan"], ["--threshold", "dI_Q=-1"], ["--threshold", "dI_fT=inf"],
                ["--sigma-allow", "nan"], ["--sigma-allow", "0"], ["--q-cap", "-1"], ["--n-ratio", "0"],
                ["--f-sys", "inf"], ["--deflection-cap", "nan"]]
@@ -92,7 +94,7 @@ CASES = [("analyze", a) for a in BAD_OPTIONS] + [("gate", a) for a in BAD_OPTION
 
 @pytest.mark.parametrize("command, args", CASES)
 def test_nan_negative_or_infinite_options_are_rejected_in_one_line(command, args):
-    extra = ["--max-level", "IV"] if command == "gate" else []
+    extra = ["--max-level", "IV", "--speed", "0rad/s"] if command == "gate" else []
     result = runner.invoke(app, [command, str(SAMPLE), *extra, *args])
     assert result.exit_code == 2 and ("expected a finite" in result.output or "whole number" in result.output)
     assert len(result.output.strip().splitlines()) == 1
@@ -124,7 +126,7 @@ def test_an_assumption_failure_is_a_warning_in_analyze_json_and_in_gate_junit(tm
     failed = [c["name"] for c in data["checks"] if not c["passed"]]
     assert "mass_normalisation" in failed and any("mass_normalisation failed" in w for w in data["warnings"])
     junit = tmp_path / "gate.xml"
-    gate = runner.invoke(app, ["gate", str(path), "--max-level", "IV", "--junit", str(junit)])
+    gate = runner.invoke(app, ["gate", *AT_REST, str(path), "--max-level", "IV", "--junit", str(junit)])
     assert gate.exit_code == 0
     assert "mass_normalisation failed" in next(ET.parse(junit).getroot().iter("testcase")).find("system-out").text
     good = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--json"]).stdout)
@@ -132,10 +134,15 @@ def test_an_assumption_failure_is_a_warning_in_analyze_json_and_in_gate_junit(tm
 
 
 def test_spin_axis_from_the_command_line_and_the_config(tmp_path):
-    one = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "200", "--spin-axis", "2", "--json"]).stdout)
-    assert one["situation"]["spin_axis"] == [0.0, 1.0, 0.0]
-    assert all("spin axis 0, 1, 0" in r["reason"] for r in one["rules"] if r["name"] in ("cf2", "cor_deformation")
-               and r["value"] is not None)
+    """1, 2, 3 are principal axes, X,Y,Z a body-frame direction (issue 22)."""
+    one = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "200", "--spin-axis", "2",
+                                         "--json"]).stdout)
+    assert one["situation"]["principal_axis"] == 2 and one["situation"]["spin_axis"] is None
+    assert all("principal axis 2" in r["reason"] for r in one["rules"] if r["value"] is not None)
+    vector = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "200", "--spin-axis", "0,1,0",
+                                            "--json"]).stdout)
+    assert vector["situation"]["spin_axis"] == [0.0, 1.0, 0.0]
+    assert all("spin axis 0, 1, 0" in r["reason"] for r in vector["rules"] if r["value"] is not None)
     every = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "200", "--json"]).stdout)
     assert every["situation"]["spin_axis"] is None and any("principal axis" in r["reason"] for r in every["rules"])
     cfg = tmp_path / "ffrf-advisor.toml"
@@ -190,7 +197,7 @@ def test_gate_reports_every_body_of_a_mix_of_good_and_broken_ones(tmp_path):
     broken = _body_with_eigenvalues(tmp_path, "zero", lam)
     missing = tmp_path / "missing.ffrf.h5"
     junit = tmp_path / "gate.xml"
-    result = runner.invoke(app, ["gate", str(SAMPLE), str(broken), str(missing), "--max-level", "IV",
+    result = runner.invoke(app, ["gate", *AT_REST, str(SAMPLE), str(broken), str(missing), "--max-level", "IV",
                                  "--junit", str(junit)])
     assert result.exit_code == 2 and "Traceback" not in result.output
     cases = list(ET.parse(junit).getroot().iter("testcase"))
@@ -214,7 +221,7 @@ def test_junit_is_valid_xml_with_testsuites_and_times_and_never_replaces_an_inpu
     junit = tmp_path / "gate.xml"
     odd = tmp_path / "beam\x01odd.ffrf.h5"
     odd.write_bytes(SAMPLE.read_bytes())
-    result = runner.invoke(app, ["gate", str(SAMPLE), str(odd), "--max-level", "iv", "--junit", str(junit)])
+    result = runner.invoke(app, ["gate", *AT_REST, str(SAMPLE), str(odd), "--max-level", "iv", "--junit", str(junit)])
     assert result.exit_code == 0, result.output
     root = ET.parse(junit).getroot()
     assert root.tag == "testsuites" and root.find("testsuite").get("tests") == "2"
@@ -222,15 +229,15 @@ def test_junit_is_valid_xml_with_testsuites_and_times_and_never_replaces_an_inpu
     copy = tmp_path / "copy.ffrf.h5"
     copy.write_bytes(SAMPLE.read_bytes())
     stamp = copy.stat().st_mtime_ns
-    same = runner.invoke(app, ["gate", str(copy), "--max-level", "IV", "--junit", str(copy)])
+    same = runner.invoke(app, ["gate", *AT_REST, str(copy), "--max-level", "IV", "--junit", str(copy)])
     assert same.exit_code == 2 and "body of this run" in same.output and copy.stat().st_mtime_ns == stamp
     notes = tmp_path / "notes.txt"
     notes.write_text("mine")
-    mine = runner.invoke(app, ["gate", str(SAMPLE), "--max-level", "IV", "--junit", str(notes)])
+    mine = runner.invoke(app, ["gate", *AT_REST, str(SAMPLE), "--max-level", "IV", "--junit", str(notes)])
     assert mine.exit_code == 2 and "not a JUnit report" in mine.output and notes.read_text() == "mine"
     link = tmp_path / "link.xml"
     os.symlink(notes, link)
-    linked = runner.invoke(app, ["gate", str(SAMPLE), "--max-level", "IV", "--junit", str(link), "--force"])
+    linked = runner.invoke(app, ["gate", *AT_REST, str(SAMPLE), "--max-level", "IV", "--junit", str(link), "--force"])
     assert linked.exit_code == 2 and "regular file" in linked.output and notes.read_text() == "mine"
     fifo = tmp_path / "fifo"
     os.mkfifo(fifo)
@@ -243,7 +250,7 @@ def test_every_analysing_command_takes_the_same_analysis_options(command):
     """The README's analysis options apply to analyze, gate and compare alike (issue 14)."""
     extra = ["--max-level", "IV", "--json"] if command == "gate" else ["--json"]
     args = ["--speed", "100", "--sigma-allow", "250", "--q-cap", "0.5", "--n-ratio", "6", "--spin-axis", "3",
-            "--threshold", "dI_Q=0.5"]
+            "--threshold", "dI_Q=0.5", "--rules", "thresholds"]
     result = runner.invoke(app, [command, str(SAMPLE), *extra, *args])
     assert result.exit_code == 0, result.output
     data = json.loads(result.stdout)
@@ -255,7 +262,7 @@ def test_every_analysing_command_takes_the_same_analysis_options(command):
     else:
         assert body["amplitudes"]["sigma_allow"] == 250.0 and body["significance"]["n_ratio"] == 6
         dI_Q = next(r for r in body["rules"] if r["name"] == "dI_Q")
-        assert body["situation"]["spin_axis"] == [0.0, 0.0, 1.0] and dI_Q["threshold"] == 0.5 and not dI_Q["fired"]
+        assert body["situation"]["principal_axis"] == 3 and dI_Q["threshold"] == 0.5 and not dI_Q["fired"]
 
 
 def test_analyze_and_compare_stay_right_at_80_columns():
@@ -321,7 +328,7 @@ def test_the_wheel_ships_the_schemas_and_the_license(tmp_path):
 def test_gate_names_each_file_once(tmp_path):
     bad = tmp_path / "bad.ffrf.h5"
     bad.write_bytes(b"x")
-    result = runner.invoke(app, ["gate", str(SAMPLE), str(bad), "--max-level", "IV"], env={"COLUMNS": "300"})
+    result = runner.invoke(app, ["gate", *AT_REST, str(SAMPLE), str(bad), "--max-level", "IV"], env={"COLUMNS": "300"})
     assert result.exit_code == 2
     line = next(line for line in result.stdout.splitlines() if line.startswith("ERROR"))
     assert line.count(str(bad)) == 1 and "expected" in line

@@ -73,7 +73,7 @@ def _same_body_and_advice(a, b):
         ref = getattr(b, name)
         assert np.abs(getattr(a, name) - ref).max() <= 1e-12 * np.abs(ref).max(), name
     assert np.abs(a.eigenvalues / b.eigenvalues - 1).max() < 1e-12
-    opts = Options(situation=Situation(w_op=300.0))
+    opts = Options(situation=Situation(w_op=300.0, rules="thresholds"))
     ra, rb = analyze(a, opts), analyze(b, opts)
     # an invariants file carries no geometric stiffness (theory 9): the same advice but for geo_stiff
     assert a.geometric is None and "geo_stiff" in rb.advice.terms
@@ -115,7 +115,7 @@ def test_without_I9_the_quadratic_and_coupling_measures_are_not_evaluable(tmp_pa
     del doc["I9"], doc["I5"]
     body = read_body(_write(tmp_path / "partial.ffinv.json", doc))
     assert body.W2 is None and body.W3 is None
-    result = analyze(body, Options(situation=Situation(w_op=300.0)))
+    result = analyze(body, Options(situation=Situation(w_op=300.0, rules="thresholds")))
     sig = result.significance
     assert set(sig.not_evaluable) == {"dI_Q", "dI_fT", "dI_Tf", "coriolis_ratio", "centrifugal_ratio", "s_crit"}
     assert np.abs(sig.dI_L - analyze(beam).significance.dI_L).max() < 1e-12
@@ -174,7 +174,7 @@ def test_gate_shows_that_a_pass_was_decided_without_measures(tmp_path, beam):
     del doc["I9"], doc["I5"]
     partial = _write(tmp_path / "partial.ffinv.json", doc)
     junit = tmp_path / "gate.xml"
-    result = runner.invoke(app, ["gate", str(partial), "--max-level", "II", "--junit", str(junit)],
+    result = runner.invoke(app, ["gate", str(partial), "--max-level", "II", "--speed", "0", "--junit", str(junit)],
                            env={"COLUMNS": "200"})
     assert result.exit_code == 0 and "ok" in result.output
     assert "warning: decided without dI_Q" in result.output

@@ -116,9 +116,9 @@ def test_convert_round_trip_and_refusal(tmp_path, beam):
 ])
 def test_settings_for_adams(body, speed, formulation, pattern):
     path = str(SAMPLES / f"{body}.ffrf.h5")
-    data = json.loads(runner.invoke(app, ["settings", path, "--solver", "adams", "--speed", speed, "--json"]).stdout)
+    data = json.loads(runner.invoke(app, ["settings", path, "--solver", "adams", "--speed", speed, "--rules", "thresholds", "--json"]).stdout)
     assert data["formulation"] == formulation and data["invariants"] == pattern
-    text = runner.invoke(app, ["settings", path, "--speed", speed], env={"COLUMNS": "200"}).output
+    text = runner.invoke(app, ["settings", path, "--speed", speed, "--rules", "thresholds"], env={"COLUMNS": "200"}).output
     assert f"INVARIANTS={pattern}" in text and data["source"].split(";")[0] in text and "guess" in text
     bad = runner.invoke(app, ["settings", path, "--solver", "simpack"])
     assert bad.exit_code == 2

@@ -70,7 +70,7 @@ def beam_html(tmp_path_factory):
 def test_html_parses_and_carries_the_level_and_every_figure(beam_html):
     page = _parse(beam_html)
     text = " ".join(page.text)
-    assert f"Verdict for {HOSTILE}: level III" in text and "gyro0" in text and "SHA-256" in text
+    assert f"Verdict for {HOSTILE}: level IV" in text and "operating point" in text and "gyro0" in text and "SHA-256" in text
     assert page.tags.count("figure") == FIGURES
     assert page.tags.count("svg") + page.tags.count("img") >= FIGURES
     for title in ("Fig. 3", "Fig. 5", "Fig. 7", "Fig. 8", "Fig. 10", "Campbell", "at q_max"):
@@ -143,7 +143,7 @@ def test_the_pdf_opens_with_its_pages_and_its_first_page_is_not_blank(tmp_path):
     pages = pdf.write(document.single(a, str(BEAM)), path)
     reader = pypdf.PdfReader(path)
     assert len(reader.pages) == pages >= FIGURES + 1  # every figure on its page, the text before them
-    assert "level III" in reader.pages[0].extract_text()
+    assert "level IV" in reader.pages[0].extract_text()
     if shutil.which("pdftoppm") is None:
         pytest.skip("pdftoppm (Debian poppler-utils) is not installed: the page was not rendered")
     subprocess.run(["pdftoppm", "-png", "-r", "50", "-f", "1", "-l", "1", str(path), str(tmp_path / "page")],

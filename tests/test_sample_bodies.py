@@ -30,7 +30,7 @@ def shipped():
 
 
 def _advice(body, connection="free"):
-    return analyze(body, Options(situation=Situation(w_op=MODERATE, connection=connection)))
+    return analyze(body, Options(situation=Situation(w_op=MODERATE, connection=connection, rules="thresholds")))
 
 
 def test_all_six_are_shipped_small_and_complete(shipped):

@@ -9,7 +9,7 @@ from .amplitudes import AmplitudeOptions, Amplitudes, q_max
 from .body import FlexibleBody
 from .checks import Check, check_warnings, run_checks
 from .errors import FFRFError
-from .guidelines import Advice, Situation, advise, check_thresholds
+from .guidelines import RULE_SETS, Advice, Situation, advise, check_thresholds
 from .significance import Significance, significance
 
 
@@ -32,7 +32,7 @@ class Analysis:
 
 def _number(name: str, value, positive: bool) -> None:
     """``value`` must be a finite number, positive (or non-negative): one line naming the option otherwise."""
-    ok = isinstance(value, (int, float)) and math.isfinite(value) and (value > 0 if positive else value >= 0)
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and (value > 0 if positive else value >= 0)
     if not ok:
         raise FFRFError(f"{name} {value!r}: expected a finite {'positive' if positive else 'non-negative'} number")
 
@@ -50,6 +50,9 @@ def check_options(options: Options) -> None:
         _number("--f-sys", sit.f_sys, True)
     if options.n_ratio is not None and (not isinstance(options.n_ratio, int) or options.n_ratio < 1):
         raise FFRFError(f"--n-ratio {options.n_ratio!r}: expected a whole number >= 1")
+    _number("--tolerance", sit.tolerance, True)
+    if sit.rules not in RULE_SETS:
+        raise FFRFError(f"--rules {sit.rules!r}: expected one of {', '.join(RULE_SETS)}")
     check_thresholds(sit.thresholds, "--threshold")
 
 

@@ -115,6 +115,15 @@ QMax = Annotated[Optional[str], typer.Option("--q-max", help="q_max per mode: co
 NRatio = Annotated[Optional[int], typer.Option("--n-ratio", help="Modes used for the norm ratios (min(10, nf)).")]
 Threshold = Annotated[Optional[list[str]], typer.Option("--threshold", help="Override a threshold: NAME=VALUE.")]
 Config = Annotated[Optional[Path], typer.Option("--config", help="TOML config (default ffrf-advisor.toml or pyproject).")]
+Tolerance = Annotated[Optional[float], typer.Option(
+    "--tolerance", help="Largest relative response error the advised set may make (0.01; docs/advice.md).")]
+Rules = Annotated[Optional[str], typer.Option(
+    "--rules", help="predicted (default: from predicted response errors), thresholds (theory 8's rules with "
+                    "--threshold) or paper (the paper's rules, 5 % and 1 %).")]
+SpeedRange = Annotated[Optional[str], typer.Option(
+    "--speed-range", help="Advise for a range of speeds: LOW..HIGH, e.g. 0..3000rpm (instead of --speed).")]
+
+
 def _json_option(command: str):
     return Annotated[bool, typer.Option("--json", help=f"Print JSON (its schema: `ffrf-advisor schema {command}`) "
                                                         "instead of tables.")]
@@ -181,18 +190,33 @@ def _thresholds(items: list[str] | None, base: dict) -> dict:
     return out
 
 
-def _spin_axis(text) -> tuple[float, float, float] | None:
-    """'1', '2', '3' (principal axes) or 'X,Y,Z'; None stays None."""
+def _spin_axis(text) -> tuple[tuple[float, float, float] | None, int | None]:
+    """(body-frame vector, principal axis): '1', '2', '3' are principal axes of I0, 'X,Y,Z' a direction."""
     if text is None:
-        return None
+        return None, None
     if str(text).strip() in ("1", "2", "3"):
-        return tuple(float(x) for x in np.eye(3)[int(text) - 1])
+        return None, int(str(text).strip())
     if isinstance(text, (list, tuple)):
         text = ",".join(str(x) for x in text)
     values = _numbers("--spin-axis", str(text))
     if values is None or len(values) != 3 or not np.all(np.isfinite(values)) or not np.any(values):
         raise FFRFError(f"--spin-axis {text!r}: expected 1, 2, 3 or three finite numbers X,Y,Z, not all zero")
-    return tuple(values)
+    return tuple(values), None
+
+
+def _speed_range(text: str | None) -> tuple[float, float] | None:
+    """'A..B' with speeds as --speed takes them (e.g. 0..3000rpm: the unit of B applies to a bare A)."""
+    if text is None:
+        return None
+    low, sep, high = str(text).partition("..")
+    if not sep:
+        raise FFRFError(f"--speed-range {text!r}: expected LOW..HIGH, e.g. 0..3000rpm")
+    top = parse_speed(high)
+    unit = high.strip().lstrip("+-0123456789.eE").strip()
+    bottom = parse_speed(low if not _is_number(low) or not unit else low.strip() + unit)
+    if bottom > top:
+        raise FFRFError(f"--speed-range {text!r}: expected LOW <= HIGH")
+    return bottom, top
 
 
 def _is_number(text) -> bool:
@@ -205,7 +229,7 @@ def _is_number(text) -> bool:
 
 def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_allow=None, q_cap=None,
                   deflection_cap=None, q_max=None, n_ratio=None, threshold=None, config=None,
-                  spin_axis=None) -> Options:
+                  spin_axis=None, tolerance=None, rules=None, speed_range=None) -> Options:
     """Options from defaults < config file < command line."""
     cfg = load_config(config)
     pick = lambda cli, key, default=None: cli if cli is not None else cfg.get(key, default)  # noqa: E731
@@ -213,14 +237,20 @@ def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_
     amp = AmplitudeOptions(sigma_allow=pick(sigma_allow, "sigma_allow", AmplitudeOptions.sigma_allow),
                            q_cap=pick(q_cap, "q_cap", AmplitudeOptions.q_cap),
                            deflection_cap=pick(deflection_cap, "deflection_cap"), q_max=_numbers("--q-max", q_max))
-    w_op = None if speed is None else parse_speed(speed)
-    if w_op is not None and _is_number(speed):
+    w_range = _speed_range(pick(speed_range, "speed_range"))
+    if w_range is not None and speed is not None:
+        raise FFRFError("--speed and --speed-range: expected one of them, got both")
+    w_op = w_range[1] if w_range is not None else (None if speed is None else parse_speed(speed))
+    if w_op is not None and w_range is None and _is_number(speed):
         err.print(f"note: speed {speed} has no unit: read as {w_op:g} rad/s (write e.g. 3000rpm or 50Hz)",
                   highlight=False)
+    vector, principal = _spin_axis(pick(spin_axis, "spin_axis"))
     situation = Situation(w_op=w_op, f_sys=pick(f_sys, "f_sys"),
                           connection=pick(connection, "connection", "free"), widening=widening,
                           thresholds=_thresholds(threshold, cfg.get("thresholds", {})),
-                          spin_axis=_spin_axis(pick(spin_axis, "spin_axis")))
+                          spin_axis=vector, principal_axis=principal,
+                          tolerance=pick(tolerance, "tolerance", Situation.tolerance),
+                          rules=pick(rules, "rules", Situation.rules), speed_range=w_range)
     options = Options(amp, situation, pick(n_ratio, "n_ratio"))
     check_options(options)
     return options
@@ -232,10 +262,11 @@ def analyze(body: Path = typer.Argument(..., help="Body file."), speed: Speed = 
             connection: Connection = None, widening: Widening = None, sigma_allow: SigmaAllow = None,
             q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None, n_ratio: NRatio = None,
             threshold: Threshold = None, config: Config = None, as_json: AsJson = False,
-            eigenvalues: Eigenvalues = None, density: Density = None, spin_axis: SpinAxis = None):
+            eigenvalues: Eigenvalues = None, density: Density = None, spin_axis: SpinAxis = None,
+            tolerance: Tolerance = None, rules: Rules = None, speed_range: SpeedRange = None):
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis)
+                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range)
     result = run_analysis(_read(body, eigenvalues, density), options)
     if as_json:
         print(json.dumps(analysis_json(result, str(body)), indent=1))
@@ -250,6 +281,7 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
          speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
          sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
          n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
+         tolerance: Tolerance = None, rules: Rules = None, speed_range: SpeedRange = None,
          eigenvalues: Eigenvalues = None, density: Density = None,
          junit: Optional[Path] = typer.Option(None, "--junit", help="Write JUnit XML here."),
          force: bool = typer.Option(False, "--force", help="Let --junit replace a file that is not a JUnit report."),
@@ -262,7 +294,10 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
     if junit is not None:
         check_junit_target(junit, bodies, force)
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis)
+                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range)
+    if options.situation.w_op is None:
+        raise FFRFError("gate: --speed: expected the operating speed (0 for a body at rest), --speed-range or "
+                        "speed in the config; without one only the rules that hold at rest would be evaluated")
     results = run_gate([str(b) for b in bodies], options, max_level, jobs, err, _mesh_options(eigenvalues, density))
     if junit is not None:
         with atomic_path(junit, overwrite=True) as tmp:
@@ -290,10 +325,11 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed:
             f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
             sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
             n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
+         tolerance: Tolerance = None, rules: Rules = None, speed_range: SpeedRange = None,
             eigenvalues: Eigenvalues = None, density: Density = None, as_json: CompareJson = False):
     """Paper-style comparison of bodies: frequencies, stress, q_max, inertia, coupling and norm ratios."""
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis)
+                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range)
     analyses = [run_analysis(_read(b, eigenvalues, density), options) for b in bodies]
     data = comparison(analyses, [str(b) for b in bodies])
     if as_json:
@@ -318,6 +354,7 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
            speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
            sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
            n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
+         tolerance: Tolerance = None, rules: Rules = None, speed_range: SpeedRange = None,
            eigenvalues: Eigenvalues = None, density: Density = None):
     """HTML or PDF report: verdict, evidence, the paper's figures and tables, pictures, Campbell, verification."""
     from .report import document
@@ -328,7 +365,7 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
     if verification and len(verification) != len(bodies):
         raise FFRFError(f"--verification: expected one file per body ({len(bodies)}), got {len(verification)}")
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis)
+                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range)
     analyses = [run_analysis(_read(b, eigenvalues, density), options) for b in bodies]
     with tempfile.TemporaryDirectory(prefix="ffrf-report-") as scratch:  # figures of --verify, until written
         studies = [_verification(a, b, Path(scratch) / str(i) if verify else None,
@@ -450,11 +487,13 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
              solver: str = typer.Option("adams", "--solver", help=f"Solver: {', '.join(SOLVERS)}."),
              speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
              threshold: Threshold = None, config: Config = None, as_json: SettingsJson = False,
-             eigenvalues: Eigenvalues = None, density: Density = None):
+             eigenvalues: Eigenvalues = None, density: Density = None, spin_axis: SpinAxis = None,
+             tolerance: Tolerance = None, rules: Rules = None, speed_range: SpeedRange = None):
     """Solver settings for the advised term set (Adams: coupling option and INVARIANTS= pattern)."""
     if solver not in SOLVERS:
         raise FFRFError(f"--solver {solver!r}: expected one of {', '.join(SOLVERS)}")
-    options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config)
+    options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config,
+                            spin_axis=spin_axis, tolerance=tolerance, rules=rules, speed_range=speed_range)
     result = run_analysis(_read(body, eigenvalues, density), options)
     data = {"schema_version": 1, "level": result.advice.level, "terms": list(result.advice.terms),
             **adams_settings(result.advice.terms),
@@ -538,14 +577,15 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    output: Optional[Path] = typer.Option(None, "--output", "-o", help="Directory for the figures."),
                    as_json: VerifyJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
                    widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
-                   threshold: Threshold = None, config: Config = None):
+                   threshold: Threshold = None, config: Config = None, rules: Rules = None):
     """Verify the advice by simulation: scenes, term sets, errors, cost, stability, Campbell, figures."""
     from .verify.scenes import SceneOptions
     from .report.verify_json import study_json
     from .verify.study import run_study
     names = list(scene or SCENES)
     check_verify_options(names, tolerance, integrator, step, rtol, repeats, output, criterion)
-    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, threshold=threshold, config=config)
+    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, threshold=threshold, config=config,
+                            tolerance=tolerance, rules=rules)
     b = _read(body)
     result = run_analysis(b, options)
     h = None if step is None else simulation_setup(b, 1.0, step, None, integrator).step

@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 import re
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +14,7 @@ from .body import FlexibleBody
 from .errors import FFRFError
 from .adequacy import basis_errors, modal_widening_stress
 from .response import r_cf2, r_cor
+from .predict import MARGIN, Candidate, candidate_sets, level_of, predictions
 from .significance import Significance
 from .terms import is_lagrangian, lagrangian_superset, ordered
 from .units import TIME
@@ -35,26 +36,58 @@ LEVELS = ("I", "II", "III", "IV")
 DEFORMATION_CORIOLIS = ("cor_quad", "cor_coupling")  # with cor1: the paper's full Coriolis (G IV)
 
 
+PAPER_THRESHOLDS = {"dI_L": 0.05, "dI_Q": 0.05, "dI_fT": 0.05, "dI_Tf": 0.05, "r_cf2": 0.01, "r_cor": 0.01}
+# advice from predicted response errors (docs/advice.md); the rules of theory 8 with the thresholds below (the
+# tool's advice before predicted errors, tuned on the six samples); the same rules with the paper's thresholds
+RULE_SETS = ("predicted", "thresholds", "paper")
+
+
 @dataclass(frozen=True)
 class Situation:
-    """What the advisor needs beyond the body. Speeds in rad/s, frequencies in Hz (per second)."""
+    """What the advisor needs beyond the body. Speeds in rad/s, frequencies in Hz (per second).
+
+    ``spin_axis`` is a body-frame direction, ``principal_axis`` (1-3) a principal axis of I0; neither: each
+    principal axis, the worst decides. ``speed_range`` (low, high) replaces ``w_op`` by the range's top
+    and the speeds below it (docs/advice.md)."""
 
     w_op: float | None = None
     f_sys: float | None = None
     connection: str = "free"
     widening: bool | None = None  # None: decided from the centrifugal stress
     thresholds: dict[str, float] = field(default_factory=dict)
-    spin_axis: tuple[float, float, float] | None = None  # body frame; None: each principal axis, the worst decides
+    spin_axis: tuple[float, float, float] | None = None
+    principal_axis: int | None = None
+    tolerance: float = 0.01
+    rules: str = "predicted"
+    speed_range: tuple[float, float] | None = None
 
-    def axes(self) -> list[np.ndarray]:
-        """The spin axes the rules evaluate: the given one, or the three principal axes."""
-        if self.spin_axis is None:
-            return list(np.eye(3))
-        a = np.asarray(self.spin_axis, float)
-        return [a / np.linalg.norm(a)]
+    def axes(self, body: FlexibleBody | None = None) -> list[np.ndarray]:
+        """The spin axes evaluated, as body-frame unit vectors: the given one, or the principal axes."""
+        if self.spin_axis is not None:
+            a = np.asarray(self.spin_axis, float)
+            return [a / np.linalg.norm(a)]
+        axes = list(np.eye(3)) if body is None else list(principal_directions(body.I0).T)
+        return axes if self.principal_axis is None else [axes[self.principal_axis - 1]]
 
     def threshold(self, name: str) -> float:
-        return {**THRESHOLDS, **self.thresholds}[name]
+        base = {**THRESHOLDS, **PAPER_THRESHOLDS} if self.rules == "paper" else THRESHOLDS
+        return {**base, **self.thresholds}[name]
+
+    @property
+    def at_rest(self) -> bool:
+        """No operating speed, or speed 0: only what holds at rest is evaluated."""
+        return not self.w_op
+
+
+def principal_directions(I0: np.ndarray) -> np.ndarray:
+    """Principal axes of I0 as columns, numbered and signed after the body axes they lie closest to (the
+    identity for a body in its principal frame, theory 4)."""
+    _, V = np.linalg.eigh(0.5 * (I0 + I0.T))
+    order = [int(i) for i in np.argmax(np.abs(V), axis=1)]
+    if len(set(order)) < 3:
+        order = [0, 1, 2]
+    V = V[:, order]
+    return V * np.where(np.diag(V) < 0, -1.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -72,12 +105,15 @@ class Rule:
 
 @dataclass(frozen=True)
 class Advice:
-    """The level, its exact term set, the evidence, and whether the set is Lagrangian (theory sections 5, 8)."""
+    """The level, its exact term set, the evidence, and whether the set is Lagrangian (theory sections 5, 8);
+    with predicted errors (docs/advice.md) every candidate set with its predictions and cost."""
 
     level: str
     terms: tuple[str, ...]
     rules: tuple[Rule, ...]
     warnings: tuple[str, ...]
+    candidates: tuple[Candidate, ...] = ()
+    operating_point: str = ""
 
     @property
     def lagrangian(self) -> bool:
@@ -127,7 +163,7 @@ def _toml(path: Path) -> dict:
 
 
 CONFIG_KEYS = {"sigma_allow", "q_cap", "deflection_cap", "n_ratio", "connection", "speed", "f_sys", "thresholds",
-               "spin_axis"}
+               "spin_axis", "tolerance", "rules", "speed_range"}
 
 
 def _validated(cfg: dict, path: Path) -> dict:
@@ -170,10 +206,10 @@ def _rule_II(body, amp: Amplitudes, sit: Situation, w_op) -> Rule:
     if body.sigma_max is None and not exact:
         return Rule("II", "widening", None, thr, None, (), "not evaluated: no modal stress data")
     if exact:  # the exact static FE solution per principal axis (theory 11): right whatever the kept modes
-        stress = list(body.static_centrifugal.sigma * w_op**2)
+        stress = [body.static_centrifugal.sigma[k] * w_op**2 for k in _principal_indices(sit)]
         source = "exact static FE solution (theory 11)"
     else:
-        stress = [modal_widening_stress(body, a) * w_op**2 for a in sit.axes()]
+        stress = [modal_widening_stress(body, a) * w_op**2 for a in sit.axes(body)]
         source = "kept modes, sum |q_c,p| sigma_p" + ("" if body.static_centrifugal is None
                                                         else "; the exact solution is per principal axis only")
     k = int(np.argmax(stress))  # the largest centrifugal stress over the spin axes decides
@@ -201,14 +237,20 @@ def _basis_warnings(body: FlexibleBody, sit: Situation, w_op) -> list[str]:
     return out
 
 
+def _principal_indices(sit: Situation) -> list[int]:
+    return list(range(3)) if sit.principal_axis is None else [sit.principal_axis - 1]
+
+
 def _axis_text(sit: Situation, k: int) -> str:
-    return "spin axis " + (", ".join(f"{x:.3g}" for x in sit.axes()[0]) if sit.spin_axis is not None
-                           else f"principal axis {k + 1}")
+    """The k-th axis evaluated, in words."""
+    if sit.spin_axis is not None:
+        return "spin axis " + ", ".join(f"{x:.3g}" for x in sit.axes()[0])
+    return f"principal axis {_principal_indices(sit)[k] + 1}"
 
 
-def _worst_axis(sit: Situation, measure) -> tuple[float, int]:
+def _worst_axis(body: FlexibleBody, sit: Situation, measure) -> tuple[float, int]:
     """(largest value of ``measure(a)`` over the spin axes, its axis index)."""
-    values = [measure(a) for a in sit.axes()]
+    values = [measure(a) for a in sit.axes(body)]
     k = int(np.argmax(values))
     return float(values[k]), k
 
@@ -227,17 +269,100 @@ def _speed_ratio(body: FlexibleBody, sit: Situation) -> tuple[float | None, list
 
 
 def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situation) -> Advice:
-    """The level, the exact term set and the evidence of every rule (theory section 8)."""
+    """The level, the exact term set and the evidence: the cheapest set whose predicted response errors stay
+    within the tolerance (docs/advice.md), or with ``sit.rules == "paper"`` the paper's rules (theory 8)."""
     if sit.connection not in CONNECTIONS:
         raise FFRFError(f"connection {sit.connection!r}: expected one of {', '.join(CONNECTIONS)}")
+    if sit.rules not in RULE_SETS:
+        raise FFRFError(f"--rules {sit.rules!r}: expected one of {', '.join(RULE_SETS)}")
     per_s = _per_second(body)
     w_op = None if sit.w_op is None else sit.w_op * per_s  # rad per body time unit
     stiff = sit.connection == "stiff"
-    rules = [Rule("I", "baseline", None, None, True, ("gyro0",), "gyroscopic term with I0 is always kept")]
     warnings = list(amp.warnings)
+    if sit.rules != "predicted":
+        level, terms, rules, more = _paper_rules(body, amp, sig, sit, w_op, stiff)
+        candidates: tuple[Candidate, ...] = ()
+        warnings += more
+    else:
+        level, terms, rules, candidates = _predicted(body, amp, sit, stiff)
+    warnings += _basis_warnings(body, sit, w_op)
+    if sig.not_evaluable:
+        warnings.append(f"decided without {', '.join(sig.not_evaluable)} ({_lacking(body)}); "
+                        "the level may be too low for beam-like or rotationally soft bodies")
+    if w_op is not None and sig.s_crit is not None and np.isfinite(sig.s_crit).any():
+        k = int(np.argmin(sig.s_crit))
+        r = w_op / sig.s_crit[k]
+        if r > sit.threshold("softening_warning"):
+            warnings.append(f"operating speed is {r:.0%} of the centrifugal-softening limit about axis {k + 1} "
+                            f"({sig.s_crit[k] / per_s:.4g} rad/s): {softening_situation(sig, k, per_s)}")
+    return Advice(level, terms, tuple(rules), tuple(warnings), candidates, operating_point(sit))
 
+
+def operating_point(sit: Situation) -> str:
+    """The operating point in words: speed with unit (or at rest), axes, connection, tolerance, rules."""
+    rules = {"paper": "the paper's rules and thresholds", "thresholds": "the rules of theory 8 with thresholds",
+             "predicted": f"predicted errors within {sit.tolerance:g} (margin {MARGIN:g})"}[sit.rules]
+    if sit.at_rest:
+        speed = ("at rest (no speed given: only what holds at rest was evaluated; give --speed)"
+                 if sit.w_op is None else "at rest (speed 0)")
+    else:
+        speed = f"{sit.w_op:.4g} rad/s ({sit.w_op * 30 / math.pi:.4g} rpm)"
+        if sit.speed_range is not None:
+            speed = (f"{sit.speed_range[0]:.4g}..{sit.speed_range[1]:.4g} rad/s (the range's top and speeds "
+                     "below it, the worst decides)")
+    axes = ("about spin axis " + ", ".join(f"{x:.3g}" for x in sit.spin_axis) if sit.spin_axis is not None
+            else f"about principal axis {sit.principal_axis}" if sit.principal_axis is not None
+            else "about each principal axis (the worst decides)")
+    return f"{speed} {axes}, connection {sit.connection}, {rules}"
+
+
+def _speeds(sit: Situation) -> list[float]:
+    """Speeds [rad/s] the predictions are evaluated at: w_op, or the range's ends and 0.1, 0.3, 0.6 of its top."""
+    if sit.at_rest:
+        return []
+    if sit.speed_range is None:
+        return [sit.w_op]
+    low, high = sit.speed_range
+    return sorted({low, high, *(f * high for f in (0.1, 0.3, 0.6) if f * high > low)} - {0.0})
+
+
+def _predicted(body: FlexibleBody, amp: Amplitudes, sit: Situation, stiff: bool):
+    """(level, terms, rules, candidates): the lowest level, then the cheapest set, whose predicted errors all
+    stay below tolerance / MARGIN (docs/advice.md); each cheaper set appears as a rule with what excluded it."""
+    per_s = _per_second(body)
+    sets = candidate_sets(body, stiff)
+    if sit.widening:  # the user says widening matters: cf1 is kept whatever its prediction
+        sets = [(label, terms) for label, terms in sets if "cf1" in terms]
+    found = predictions(body, sets, sit.axes(body), [s * per_s for s in _speeds(sit)], amp.q_max,
+                        amp.sigma_allow, stiff)
+    if sit.widening is False:
+        found = [replace(c, errors={**c.errors, "static": 0.0}) for c in found]
+    rank = lambda c: (LEVELS.index(level_of(c.terms)), round(c.cost, 9), len(c.terms))  # noqa: E731
+    chosen = min((c for c in found if c.meets(sit.tolerance)), key=rank)
+    thr = sit.tolerance / MARGIN
+    rules = [Rule("I", "baseline", None, None, True, ("gyro0",), "gyroscopic term with I0 is always kept")]
+    for c in sorted(found, key=rank):
+        if rank(c) >= rank(chosen):
+            break
+        kind, value = c.worst
+        added = tuple(t for t in chosen.terms if t not in c.terms)
+        rules.append(Rule(level_of(c.terms), c.label, value, thr, True, added,
+                          f"{c.label} ({', '.join(c.terms)}): predicted {kind} error {value:.3g} "
+                          f"({_axis_text(sit, c.axes[kind])}) > {thr:g}: needs {', '.join(added) or 'nothing'}"))
+    kind, value = chosen.worst
+    reason = ("at rest every prediction vanishes (no spin, no centrifugal load)" if sit.at_rest else
+              f"largest predicted error {kind} {value:.3g} ({_axis_text(sit, chosen.axes[kind])}) <= {thr:g}")
+    rules.append(Rule(level_of(chosen.terms), "advised", value, thr, True, chosen.terms,
+                      f"{chosen.label}: the lowest level, then the cheapest set, whose predicted errors stay below "
+                      f"the tolerance {sit.tolerance:g} / {MARGIN:g}; {reason}; right-hand side "
+                      f"{chosen.cost:.2f} of the full set's"))
+    return level_of(chosen.terms), chosen.terms, rules, tuple(found)
+
+
+def _paper_rules(body, amp: Amplitudes, sig: Significance, sit: Situation, w_op, stiff: bool):
+    """(level, terms, rules, warnings) by the paper's rules with its thresholds (theory section 8)."""
+    rules = [Rule("I", "baseline", None, None, True, ("gyro0",), "gyroscopic term with I0 is always kept")]
     rules.append(_rule_II(body, amp, sit, w_op))
-
     measures = {"dI_L": (sig.dI_L, "inertia_lin"), "dI_Q": (sig.dI_Q, "inertia_quad"),
                 "dI_fT": (sig.dI_fT, "coupling"), "dI_Tf": (sig.dI_Tf, "coupling")}
     rule3_fired = False
@@ -254,25 +379,11 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
                   + ("; body stiffly connected: I0 suffices" if over and stiff else ""))
         rules.append(Rule("III", name, float(value), thr, fired, (term,) if fired else (), reason))
     rules.append(_rule_cf2(body, sit, w_op, stiff))  # cf2 alone does not call for Coriolis terms
-
-    ratio, w = _speed_ratio(body, sit)
-    warnings += w
+    ratio, warnings = _speed_ratio(body, sit)
     rules += _rules_IV(body, sig, sit, w_op, ratio, stiff, rule3_fired)
-
-    warnings += _basis_warnings(body, sit, w_op)
-    if sig.not_evaluable:
-        warnings.append(f"decided without {', '.join(sig.not_evaluable)} ({_lacking(body)}); "
-                        "the level may be too low for beam-like or rotationally soft bodies")
-    if w_op is not None and sig.s_crit is not None and np.isfinite(sig.s_crit).any():
-        k = int(np.argmin(sig.s_crit))
-        r = w_op / sig.s_crit[k]
-        if r > sit.threshold("softening_warning"):
-            warnings.append(f"operating speed is {r:.0%} of the centrifugal-softening limit about axis {k + 1} "
-                            f"({sig.s_crit[k] / per_s:.4g} rad/s): {softening_situation(sig, k, per_s)}")
     level = max((r.rule for r in rules if r.fired and r.terms), key=LEVELS.index)
     rules.append(_closure(ordered({t for r in rules for t in r.terms}), level, stiff, body.geometric is not None))
-    terms = ordered({t for r in rules for t in r.terms})
-    return Advice(level, terms, tuple(rules), tuple(warnings))
+    return level, ordered({t for r in rules for t in r.terms}), rules, warnings
 
 
 def softening_situations(a) -> list[str] | None:
@@ -325,7 +436,7 @@ def _rule_cf2(body: FlexibleBody, sit: Situation, w_op, stiff: bool) -> Rule:
         return Rule("III", "cf2", None, thr, None, (), f"not evaluable: {_lacking(body)}")
     if w_op is None:
         return Rule("III", "cf2", None, thr, None, (), "r_cf2 not evaluated: no operating speed")
-    value, k = _worst_axis(sit, lambda a: r_cf2(body, a, w_op))
+    value, k = _worst_axis(body, sit, lambda a: r_cf2(body, a, w_op))
     over = value > thr
     fired = over and not stiff
     geo = body.geometric is not None
@@ -357,7 +468,7 @@ def _rules_IV(body, sig, sit, w_op, ratio, stiff, inertia_fired) -> list[Rule]:
         rules.append(Rule("IV", "cor_deformation", None, cthr, True if full else (None if fired else False),
                           DEFORMATION_CORIOLIS if full else (), reason))
         return rules
-    value, k = _worst_axis(sit, lambda a: r_cor(body, a, w_op))
+    value, k = _worst_axis(body, sit, lambda a: r_cor(body, a, w_op))
     full = fired and (inertia_fired or value > cthr)
     reason = (("rule III fired (beam-like or rotationally soft body); " if inertia_fired else "")
               + f"r_cor = {value:.3g} {'>' if value > cthr else '<='} {cthr:g} at w_op ({_axis_text(sit, k)}): "

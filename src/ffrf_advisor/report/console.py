@@ -17,6 +17,7 @@ from ..adequacy import summary as basis_summary
 from ..body import FlexibleBody
 from ..guidelines import softening_situations
 from ..checks import Check
+from ..predict import KINDS, MARGIN, level_of
 from ..sim.cost import cost_ratio
 from ..terms import is_lagrangian
 
@@ -107,8 +108,10 @@ def analysis_summary(console: Console, a) -> None:
     u = b.units
     console.print(f"[bold]{shown(b.name)}[/bold]: level [bold]{adv.level}[/bold]   terms: {', '.join(adv.terms)}"
                   + ("   (Lagrangian)" if adv.lagrangian else _not_lagrangian(adv, b.nf)))
+    console.print(f"operating point: {adv.operating_point}", highlight=False)
     for w in adv.warnings:
         console.print(f"[yellow]warning[/yellow]: {w}")
+    _candidates(console, a)
     t = Table(title=f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "
                     f"sigma_allow {amp.sigma_allow:.4g} {u.stress})")
     for col in ("mode", f"f {_unit(u.frequency)}", f"q_max {_unit(f'sqrt({u.mass}) {u.length}')}", "governs",
@@ -143,6 +146,22 @@ def analysis_summary(console: Console, a) -> None:
     console.print(g)
     _basis_table(console, a)
     _evidence(console, adv.rules)
+
+
+def _candidates(console: Console, a) -> None:
+    """Each candidate set with its predicted errors (docs/advice.md) and cost, the advised one marked."""
+    adv, sit = a.advice, a.options.situation
+    if not adv.candidates:
+        return
+    t = Table(title=f"predicted response errors per term set (adequate: all <= {sit.tolerance:g} / {MARGIN:g}; "
+                    "docs/advice.md)")
+    for col in ("set", "level", "rhs", *KINDS, "ok"):
+        t.add_column(col, justify="left" if col == "set" else "right")
+    for c in sorted(adv.candidates, key=lambda c: c.cost):
+        mark = "<-" if set(c.terms) == set(adv.terms) else ""
+        t.add_row(c.label, level_of(c.terms), f"{c.cost:.2f}", *(f"{c.errors[k]:.2g}" for k in KINDS),
+                  ("yes" if c.meets(sit.tolerance) else "no") + mark)
+    console.print(t)
 
 
 def _evidence(console: Console, rules) -> None:
@@ -238,14 +257,22 @@ def _err(x) -> str:
 VERIFY_COLUMNS = {"response": {"w_response": "w", "q_response": "q", "stress_peak": "peak stress",
                                 "frequency": "frequency"},
                   "trajectory": {"w": "w", "orientation": f"angle {_unit('rad')}", "q": "q", "stress": "stress"}}
+VERDICT_COLOUR = {"agree": "green", "conservative": "yellow", "unsafe": "red", "no verdict": "magenta"}
 CRITERION_TEXT = {"response": "frequencies at the spin, means and oscillation sizes, peak stress",
                   "trajectory": "pointwise along the run; phase errors count"}
+
+
+def _scene_verdict(v: dict) -> str:
+    """A scene's own verdict, with why when it gives none."""
+    colour = VERDICT_COLOUR[v["verdict"]]
+    why = "".join(f": {u['reason']}" for u in v["unjudged"])
+    return f"[{colour}]{v['verdict']}[/{colour}]{why}"
 
 
 def verification_report(console: Console, d: dict) -> None:
     """The verdict on top, then per scene the errors, drift and speed-up of each set, stability and Campbell."""
     v = d["verdict"]
-    colour = {"agree": "green", "conservative": "yellow", "unsafe": "red"}[v["verdict"]]
+    colour = VERDICT_COLOUR[v["verdict"]]
     console.print(f"[bold]{d['body']['name']}[/bold]: advice level {v['advised_level']} "
                   f"[{colour}]{v['verdict'].upper()}[/{colour}]", highlight=False)
     console.print(v["text"], highlight=False)
@@ -253,9 +280,8 @@ def verification_report(console: Console, d: dict) -> None:
                   f"({CRITERION_TEXT[d['criterion']]})", highlight=False)
     columns = VERIFY_COLUMNS[d["criterion"]]
     for scene in d["scenes"]:
-        ref = scene["reference"]["self_error"]
         t = Table(title=f"{scene['label']}: {scene['text']}; reference self-convergence "
-                        f"{max(x for x in ref.values() if x is not None):.1e}")
+                        f"{_err(scene['reference']['self_check']['error'])}; {_scene_verdict(scene['verdict'])}")
         for col in ("set", *columns.values(), "ok", "speed-up"):
             t.add_column(col, justify="left" if col == "set" else "right")
         for r in (r for r in d["results"] if r["scene"] == scene["label"]):

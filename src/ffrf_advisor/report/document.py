@@ -97,7 +97,7 @@ def verdict(a: Analysis, d: dict) -> Section:
     """Level, term set, Lagrangian or not, the evidence per rule, every warning, softening, basis, solver; ``d`` is
     the analysis JSON (report.json_out)."""
     sig = d["significance"]
-    fields = [("level", d["level"]), ("terms", ", ".join(d["terms"])),
+    fields = [("level", d["level"]), ("terms", ", ".join(d["terms"])), ("operating point", d["operating_point"]),
               ("Lagrangian", "yes" if d["lagrangian"] else "no")]
     if not d["lagrangian"]:
         sup = d["lagrangian_superset"]

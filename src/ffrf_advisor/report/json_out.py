@@ -10,10 +10,12 @@ from ..adequacy import summary as basis_summary
 from ..analysis import Analysis
 from ..checks import check_warnings
 from ..guidelines import THRESHOLDS, softening_situations
+from ..predict import level_of
 from ..significance import Ratio
 from ..sim.cost import cost_ratio
 
-SCHEMA_VERSION = 3  # 2: cor_full split into cor_quad + cor_coupling, lagrangian; 3: basis_adequacy
+SCHEMA_VERSION = 4  # 2: cor_full split into cor_quad + cor_coupling, lagrangian; 3: basis_adequacy;
+# 4: operating_point, candidates with predicted errors, situation's tolerance, rules, principal axis, range
 
 
 def json_number(x):
@@ -67,7 +69,14 @@ def analysis_json(a: Analysis, source: str) -> dict:
             "speed_rad_s": json_number(sit.w_op), "f_sys_hz": json_number(sit.f_sys), "connection": sit.connection,
             "widening": sit.widening, "thresholds": {**THRESHOLDS, **sit.thresholds},
             "spin_axis": None if sit.spin_axis is None else list(sit.spin_axis),
+            "principal_axis": sit.principal_axis, "tolerance": sit.tolerance, "rules": sit.rules,
+            "speed_range_rad_s": None if sit.speed_range is None else list(sit.speed_range),
+            "at_rest": sit.at_rest,
         },
+        "operating_point": adv.operating_point,
+        "candidates": [{"label": c.label, "terms": list(c.terms), "level": level_of(c.terms), "cost": c.cost,
+                        "errors": {k: json_number(v) for k, v in c.errors.items()},
+                        "adequate": c.meets(sit.tolerance)} for c in adv.candidates],
         "level": adv.level,
         "terms": list(adv.terms),
         "lagrangian": adv.lagrangian,

@@ -70,6 +70,17 @@ def _coordinate_scales(model: Model, x: np.ndarray) -> np.ndarray:
 
 def linearise(model: Model, axis, s: float) -> Linearisation:
     """The term set linearised at steady spin ``s`` (rad per time unit) about unit ``axis``."""
+    return _linearised(model, axis, s)[0]
+
+
+def modal_spectrum(model: Model, axis, s: float) -> tuple[np.ndarray, np.ndarray, bool]:
+    """(frequencies [1/time], their mode shapes: the q parts of the eigenvectors as columns (nf, n), unstable)
+    of the modes' oscillations at steady spin ``s`` about ``axis``, in ascending frequency."""
+    lin, shapes = _linearised(model, axis, s)
+    return lin.frequencies, shapes, lin.unstable
+
+
+def _linearised(model: Model, axis, s: float) -> tuple[Linearisation, np.ndarray]:
     a = np.asarray(axis, float)
     a = a / np.linalg.norm(a)
     w = s * a
@@ -80,8 +91,10 @@ def linearise(model: Model, axis, s: float) -> Linearisation:
     unstable = bool(np.any(mu.real > UNSTABLE * top))
     osc = np.flatnonzero(mu.imag > 1e-9 * top)
     modal = _modal_oscillations(_modal_share(model, V[:, osc]), model.nf)
+    own = osc[modal][np.argsort(mu.imag[osc[modal]], kind="stable")]
     to_hz = lambda idx: np.sort(mu.imag[idx]) / (2 * np.pi)  # noqa: E731
-    return Linearisation(s, a, q, mu, to_hz(osc[modal]), to_hz(osc[~modal]), unstable)
+    lin = Linearisation(s, a, q, mu, to_hz(own), to_hz(osc[~modal]), unstable)
+    return lin, V[3:3 + model.nf, own]
 
 
 def _modal_oscillations(share: np.ndarray, nf: int) -> np.ndarray:

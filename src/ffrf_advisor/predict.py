@@ -1,0 +1,243 @@
+"""Predicted response errors of term sets at an operating point (docs/advice.md; theory sections 5-10).
+
+For a spin ``s`` about a unit axis ``a`` each candidate set T is compared
+with the reference set R (the full FFRF, with ``geo_stiff`` where the body
+carries G) by linear algebra alone, no time integration. Each prediction
+bounds one response error of ``verify`` (verify.measures), on its scales:
+
+- ``frequency``: both sets linearised at steady spin (sim.linearise), their
+  mode spectra matched by mode shape (MAC of the modal parts, so that a
+  degenerate pair split by the spin counts); ``max |f_T - f_R| / f_R``.
+  Bounds the response error of a run that drifts in phase.
+- ``mixing``: the shape change by the flexible gyroscopic matrix
+  ``Gy = 2 s sum_k a_k W3k^T`` (term ``cor_coupling``) that T lacks: first
+  order perturbation mixes mode q into mode p by
+  ``Omega_q |Gy_pq| / |Omega_p^2 - Omega_q^2|``. Pairs closer than the
+  coupling (``|Omega_p - Omega_q| <= |Gy_pq|``) split instead of mixing, which
+  ``frequency`` measures. Bounds the change of oscillation amplitudes and
+  peak stress where frequencies barely move.
+- ``static``: the static centrifugal deflection of each set at spin s
+  (``q`` with flexible force 0), its stress ``sum_p sigma_p |dq_p|`` and
+  deflection ``|dq|``, times the dynamic load factor 2 of a sudden load,
+  over the scales of verify (``max(2 sigma(q_R), FLOOR sigma_allow)``,
+  ``max(2 |q_R|, FLOOR |q_max|)``); a set without cf1 also misses the
+  exact static FE solution's stress where the body carries it (theory 11:
+  the modes may not span the widening).
+- ``inertia``: the relative change of the rotational inertia seen by w
+  (``I_TT - C C^T``, theory 7) that T leaves out, at the deformation of the
+  spinning body (static deflection plus every mode at q_max), bounded by the
+  triangle inequality over the modes: ``max_k |dI e_k| / I0_kk``. A free
+  spin keeps ``I w``, so w errs by this much. A stiffly connected body's
+  rotation is imposed: no inertia error then.
+
+At rest (s = 0) every set has the frequencies Omega and no load: all four
+vanish (a torque pulse from rest leaves the modes at rest to first order).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import combinations
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from .body import FlexibleBody
+from .sim import equations as eq
+from .sim.cost import rhs_cost
+from .sim.linearise import modal_spectrum, static_deflection
+from .sim.model import Model, build_model
+from .terms import FULL, GROUPS, LEVEL_SETS, is_lagrangian, lagrangian_superset, ordered
+
+KINDS = ("frequency", "mixing", "static", "inertia")
+MARGIN = 2.0   # a set is adequate when every prediction is below tolerance / MARGIN (first-order estimates add)
+DLF = 2.0      # dynamic load factor of a sudden load (theory 10, spin-up and torque pulse)
+FLOOR = 0.1    # of |q_max| and sigma_allow: the floors of verify.measures (tested equal)
+TERM_LEVEL = {"gyro0": "I", "cf1": "II", "inertia_lin": "II", "cor1": "II", "inertia_quad": "III", "cf2": "III",
+              "coupling": "III", "geo_stiff": "III", "cor_quad": "IV", "cor_coupling": "IV"}
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A term set, its predicted errors (the worst over the axes and speeds) and where, and its cost."""
+
+    label: str
+    terms: tuple[str, ...]
+    errors: dict[str, float]
+    axes: dict[str, int]        # index into the axes evaluated, per kind
+    cost: float                 # right-hand-side cost over that of the reference (sim.cost)
+
+    @property
+    def worst(self) -> tuple[str, float]:
+        kind = max(KINDS, key=lambda k: self.errors[k])
+        return kind, self.errors[kind]
+
+    def meets(self, tolerance: float) -> bool:
+        return self.worst[1] <= tolerance / MARGIN
+
+
+def level_of(terms) -> str:
+    """The guideline level of a term set: the highest level any of its terms belongs to (theory 8)."""
+    return max((TERM_LEVEL[t] for t in terms), key=("I", "II", "III", "IV").index)
+
+
+def reference_terms(body: FlexibleBody) -> tuple[str, ...]:
+    """The richest set the body carries: the full FFRF (less groups whose invariants are missing), with
+    geo_stiff where the body has G (theory 9)."""
+    missing = body.integrals.missing
+    terms = [t for t in FULL if not any(g in missing for g in ("W2", "W3") if t in GROUPS[g])]
+    return ordered(terms + (["geo_stiff"] if body.geometric is not None and "cf2" in terms else []))
+
+
+def candidate_sets(body: FlexibleBody, stiff: bool) -> list[tuple[str, tuple[str, ...]]]:
+    """(label, terms): the canonical levels (closed to whole energy groups unless the body is stiffly
+    connected) and every Lagrangian set, within what the body carries; geo_stiff joins cf2 (theory 9)."""
+    allowed = set(reference_terms(body))
+    out: dict[tuple[str, ...], str] = {}
+
+    def add(label, terms):
+        terms = set(terms) | ({"geo_stiff"} if "cf2" in terms and "geo_stiff" in allowed else set())
+        if terms <= allowed:
+            out.setdefault(ordered(terms), label)
+
+    for terms in LEVEL_SETS.values():
+        terms = terms if stiff else lagrangian_superset(terms)
+        add(level_of(terms), terms)
+    for n in range(4):
+        for groups in combinations(("W1", "W2", "W3"), n):
+            add("gyro0" + "".join(f"+{g}" for g in groups), {"gyro0", *(t for g in groups for t in GROUPS[g])})
+    return [(label, terms) for terms, label in out.items()]
+
+
+def _matched_error(f_ref: np.ndarray, V_ref: np.ndarray, f: np.ndarray, V: np.ndarray) -> float:
+    """Largest relative frequency error after pairing the modes by shape (MAC), ties by frequency."""
+    if len(f) != len(f_ref):
+        return np.inf
+    if not len(f):
+        return 0.0
+    A = V_ref / np.linalg.norm(V_ref, axis=0)
+    B = V / np.linalg.norm(V, axis=0)
+    mac = np.abs(A.conj().T @ B) ** 2
+    rel = np.abs(f[None, :] - f_ref[:, None]) / f_ref[:, None]
+    rows, cols = linear_sum_assignment(-(mac - 1e-3 * np.minimum(rel, 1.0)))
+    return float(np.max(rel[rows, cols]))
+
+
+def mixing(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray, sigma_allow: float) -> float:
+    """What the flexible gyroscopic matrix at spin s about a moves between the modes at q_max: the mixing
+    ``c_pq`` of mode q into mode p, summed over the modes as stress ``sum_pq sigma_p c_pq q_max,q`` (or as
+    deflection ``|c q_max|`` without stress data), over the scale of verify."""
+    nf = body.nf
+    if nf < 2 or "W3" in body.integrals.missing:
+        return 0.0
+    W3k = body.integrals.W3().reshape(3, nf, nf)
+    Gy = np.abs(2 * s * np.einsum("k,krs->sr", a, W3k))
+    om = np.sqrt(np.abs(body.eigenvalues))
+    split = np.abs(om[:, None] - om[None, :]) <= Gy
+    c = np.where(split, 0.0, om[None, :] * Gy / np.maximum(np.abs(om[:, None] ** 2 - om[None, :] ** 2), 1e-300))
+    np.fill_diagonal(c, 0.0)
+    if body.sigma_max is None:
+        return float(np.linalg.norm(c @ q_max) / max(np.linalg.norm(q_max), 1e-300))
+    sigma = np.asarray(body.sigma_max)
+    return float(sigma @ c @ q_max / max(sigma @ q_max, FLOOR * sigma_allow, 1e-300))
+
+
+def _stress(body: FlexibleBody, q: np.ndarray) -> float:
+    return float(np.asarray(body.sigma_max) @ np.abs(q))
+
+
+def exact_widening(body: FlexibleBody, a: np.ndarray, s: float) -> float:
+    """Largest von Mises stress of the exact static FE solution at spin s about a principal axis a (theory 11;
+    the modes may miss it), 0 where the body carries none or a is no principal axis."""
+    if body.static_centrifugal is None:
+        return 0.0
+    k = int(np.argmax(np.abs(a)))
+    return float(body.static_centrifugal.sigma[k] * s**2) if abs(abs(a[k]) - 1) < 1e-9 else 0.0
+
+
+def static_error(body: FlexibleBody, q: np.ndarray, q_ref: np.ndarray, q_max: np.ndarray,
+                 sigma_allow: float, missed: float = 0.0) -> float:
+    """Static centrifugal response error with the dynamic load factor, on the scales of verify; ``missed``:
+    a stress the set leaves out beyond the modes' (the exact widening stress, for a set without cf1)."""
+    dq = q - q_ref
+    e = DLF * np.linalg.norm(dq) / max(DLF * np.linalg.norm(q_ref), FLOOR * np.linalg.norm(q_max), 1e-300)
+    if body.sigma_max is not None:
+        ref = max(_stress(body, q_ref), missed)
+        e = max(e, DLF * max(_stress(body, dq), missed) / max(DLF * ref, FLOOR * sigma_allow, 1e-300))
+    return float(e)
+
+
+def inertia_bound(ref: Model, model: Model, D: np.ndarray) -> np.ndarray:
+    """Elementwise bound (3, 3) of ``(I_TT - C C^T)`` of ``ref`` minus that of ``model`` over every deformation
+    ``sum_i +-D[i]`` (rows: the parts of the deformation), by the triangle inequality."""
+    bound = np.zeros((3, 3))
+    if ref.on("inertia_lin") and not model.on("inertia_lin"):
+        bound += np.abs(eq.linear_inertia(ref, D)).sum(axis=0)
+    quad = ref.on("inertia_quad") and not model.on("inertia_quad")
+    coup = ref.on("coupling") and not model.on("coupling")
+    if quad or coup:
+        i, j = np.triu_indices(len(D))
+        twice = np.where(i == j, 1.0, 2.0)[:, None, None]
+        if quad:
+            bound += (twice * np.abs(eq.quadratic_inertia(ref, D[i], D[j]))).sum(axis=0)
+        if coup:
+            C = eq.coupling_matrix(ref, D)
+            bound += (twice * np.abs(0.5 * (C[i] @ np.swapaxes(C[j], -1, -2)
+                                            + C[j] @ np.swapaxes(C[i], -1, -2)))).sum(axis=0)
+    return bound
+
+
+def inertia_error(ref: Model, model: Model, q_static: np.ndarray, q_max: np.ndarray) -> float:
+    """``max_k |dI e_k| / I0_kk`` at the static deflection plus every mode at q_max (any signs)."""
+    D = np.vstack([np.diag(q_max), q_static[None, :]])
+    bound = inertia_bound(ref, model, D)
+    return float(np.max(np.linalg.norm(bound, axis=0) / np.diag(ref.I0)))
+
+
+def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axes, speeds, q_max: np.ndarray,
+                sigma_allow: float, stiff: bool) -> list[Candidate]:
+    """Every set's predicted errors, the worst over ``axes`` (unit vectors) and ``speeds`` (rad per body time
+    unit), against the reference set; cost relative to the reference's right-hand side."""
+    ref_terms = reference_terms(body)
+    ref = build_model(body, ref_terms)
+    models = [build_model(body, terms) for _, terms in sets]
+    errors = np.zeros((len(sets), len(KINDS)))
+    where = np.zeros((len(sets), len(KINDS)), dtype=int)
+    for i_axis, a in enumerate(axes):
+        a = np.asarray(a, float) / np.linalg.norm(a)
+        for s in speeds:
+            if s <= 0:
+                continue
+            e = _at(body, ref, models, sets, a, s, q_max, sigma_allow, stiff)
+            worse = e > errors
+            errors = np.where(worse, e, errors)
+            where = np.where(worse, i_axis, where)
+    full = rhs_cost(ref_terms, body.nf)
+    return [Candidate(label, terms, dict(zip(KINDS, map(float, errors[i]))), dict(zip(KINDS, map(int, where[i]))),
+                      rhs_cost(terms, body.nf) / full) for i, (label, terms) in enumerate(sets)]
+
+
+def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff) -> np.ndarray:
+    """(sets, KINDS) predictions at one spin s about one axis a."""
+    w = s * a
+    f_ref, V_ref, _ = modal_spectrum(ref, a, s)
+    q_ref = static_deflection(ref, w)
+    mix = mixing(body, a, s, q_max, sigma_allow)
+    widening = exact_widening(body, a, s)
+    out = np.zeros((len(sets), len(KINDS)))
+    for i, (model, (_, terms)) in enumerate(zip(models, sets)):
+        if set(terms) == set(ref.terms):
+            continue
+        f, V, _ = modal_spectrum(model, a, s)
+        out[i] = (_matched_error(f_ref, V_ref, f, V),
+                  0.0 if model.on("cor_coupling") or not ref.on("cor_coupling") else mix,
+                  static_error(body, static_deflection(model, w), q_ref, q_max, sigma_allow,
+                               widening if ref.on("cf1") and not model.on("cf1") else 0.0),
+                  0.0 if stiff else inertia_error(ref, model, q_ref, q_max))
+    return out
+
+
+def cheapest(candidates: list[Candidate], tolerance: float) -> Candidate:
+    """The cheapest adequate candidate (ties: fewer terms, then the order given); the reference always is."""
+    ok = [c for c in candidates if c.meets(tolerance)]
+    return min(ok, key=lambda c: (round(c.cost, 9), len(c.terms)))
+

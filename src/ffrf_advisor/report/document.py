@@ -20,6 +20,7 @@ import numpy as np
 
 from .. import __version__
 from ..analysis import Analysis
+from ..predict import KINDS
 from ..solver_settings import adams_settings
 from . import paper_figures as pf
 from .json_out import analysis_json
@@ -111,8 +112,14 @@ def verdict(a: Analysis, d: dict) -> Section:
     soft = [(str(k + 1), _num(sig["s_crit"][k] if sig["s_crit"] else None, "rad/s"),
              _num(sig["s_crit_stiffened"][k] if sig["s_crit_stiffened"] else None, "rad/s"),
              str(sig["softening_situation"][k]) if sig["softening_situation"] else "-") for k in range(3)]
-    blocks = [("fields", fields),
-              ("table", (("rule", "measure", "value", "threshold", "outcome", "terms", "reason"), rules)),
+    blocks = [("fields", fields)]
+    if d["candidates"]:
+        tol = d["situation"]["tolerance"]
+        blocks.append(("table", (("term set (docs/advice.md)", "level", "rhs cost", *KINDS, f"within {tol:g} / 2"),
+                                 [(c["label"], c["level"], f"{c['cost']:.2f}", *(_num(c["errors"][k]) for k in KINDS),
+                                   "yes" if c["adequate"] else "no")
+                                  for c in sorted(d["candidates"], key=lambda c: c["cost"])])))
+    blocks += [("table", (("rule", "measure", "value", "threshold", "outcome", "terms", "reason"), rules)),
               ("table", (("axis", "s_crit", "s_crit with G", "situation (theory 9)"), soft))]
     if d["basis_adequacy"]:
         unit = a.body.units.stress

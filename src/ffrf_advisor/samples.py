@@ -16,6 +16,7 @@ from .errors import FFRFError
 from .fe.build import modal_body
 from .fe.material import STEEL
 from .fe.mesh import Box, Mesh, box_mesh, box_union_mesh, round_hole
+from .zoo import ZOO_PREFIX, parse_zoo_name, zoo_body
 
 N_MODES = 16
 MAX_REFINE = 4  # carbody at 4: about 370,000 nodes (walls: nodes grow with refine^2)
@@ -128,12 +129,22 @@ SAMPLES = tuple(RECIPES)
 
 def sample(name: str, refine: int = 1, keep_stiffness: bool = False, report=None) -> FlexibleBody:
     """The sample body ``name`` at mesh refinement ``refine`` (1: the shipped one), K only when asked;
-    ``report(step)`` hears of each step of the FE work."""
+    ``report(step)`` hears of each step of the FE work. A name "zoo:FAMILY:SEED" gives that body of the zoo
+    (``zoo``), whose mesh density is drawn from the seed (refine 1 only)."""
+    if name.startswith(ZOO_PREFIX):
+        if refine != 1:
+            raise FFRFError(f"--refine {refine}: a zoo body's mesh density is drawn from its seed; expected 1")
+        body = zoo_body(*parse_zoo_name(name), report=report)
+    else:
+        body = _recipe_body(name, refine, report)
+    return body if keep_stiffness else _without_stiffness(body)
+
+
+def _recipe_body(name: str, refine: int, report) -> FlexibleBody:
     if name not in RECIPES:
-        raise FFRFError(f"sample {name!r}: expected one of {', '.join(SAMPLES)}")
+        raise FFRFError(f"sample {name!r}: expected one of {', '.join(SAMPLES)}, or zoo:FAMILY:SEED (docs/zoo.md)")
     if not 1 <= refine <= MAX_REFINE:
         raise FFRFError(f"--refine {refine}: expected an integer from 1 to {MAX_REFINE} "
                         "(the element count grows with its cube)")
     make_mesh, material, _ = RECIPES[name]
-    body = modal_body(make_mesh(refine), material, N_MODES, name=name, report=report)
-    return body if keep_stiffness else _without_stiffness(body)
+    return modal_body(make_mesh(refine), material, N_MODES, name=name, report=report)

@@ -4,6 +4,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import scipy.sparse as sp
 
 from ..adequacy import static_centrifugal
 from ..body import FlexibleBody, ModalFE, Provenance
@@ -17,17 +18,22 @@ from .stress import modal_von_mises
 
 
 def modal_body(mesh: Mesh, material: Material, n_modes: int, name: str = "body",
-               lumping: str | None = None, report=None) -> FlexibleBody:
+               lumping: str | None = None, report=None, added_mass: sp.sparray | None = None) -> FlexibleBody:
     """Free-free modal body of ``mesh`` in t-mm-N-s, in its CoM principal frame (theory sections 1-3), with
     its static centrifugal response and geometric stiffness (theory 9, 11).
 
     ``lumping`` None gives the consistent mass; 'rowsum' or 'hrz' a diagonal
-    mass, used for both the eigenproblem and the invariants. ``report(step)``,
-    when given, hears of each step before it starts (long work shows progress).
+    mass, used for both the eigenproblem and the invariants. ``added_mass``, a
+    scalar nodal mass (n x n; theory 2) such as that of denser parts assembled
+    on a sub-mesh (``Mesh.cells_where``) with their extra density, adds to the
+    material's; the stiffness stays the material's. ``report(step)``, when
+    given, hears of each step before it starts (long work shows progress).
     """
     say = report or (lambda step: None)
     say(f"assembling mass and stiffness ({3 * mesh.n_nodes} DOFs)")
     Ms = mass_matrix(mesh, material.rho, lumping)
+    if added_mass is not None:
+        Ms = sp.csr_array(Ms + added_mass)
     K = stiffness_matrix(mesh, material)
     say(f"free-free modal analysis ({n_modes} modes)")
     modes = free_free_modes(K, Ms, mesh.points, n_modes)
@@ -38,7 +44,8 @@ def modal_body(mesh: Mesh, material: Material, n_modes: int, name: str = "body",
         mass_matrix="lumped" if lumping else "consistent",
         notes=(f"{material.name}: E={material.E:g}, nu={material.nu:g}, rho={material.rho:g}",
                f"{mesh.n_cells} x {', '.join(mesh.cells)}, {mesh.n_nodes} nodes"
-               + (f", {lumping} lumped mass" if lumping else "")),
+               + (f", {lumping} lumped mass" if lumping else "")
+               + ("" if added_mass is None else f", added mass {added_mass.sum():g}")),
     )
     body = fe_body(name, mesh, Ms, modes.Phi, modes.eigenvalues, provenance, K, stress, material)
     say("static centrifugal response and geometric stiffness")

@@ -26,3 +26,4 @@ class Material:
 
 STEEL = Material("steel", E=210000.0, nu=0.3, rho=7.85e-9)
 ALUMINIUM = Material("aluminium", E=70000.0, nu=0.33, rho=2.70e-9)
+TITANIUM = Material("titanium", E=113800.0, nu=0.342, rho=4.43e-9)  # Ti-6Al-4V

@@ -16,11 +16,12 @@ from ffrf_advisor.guidelines import LEVELS, Situation
 from ffrf_advisor.io import read_body
 from ffrf_advisor.predict import FLOOR, candidate_sets, mixing, predictions, reference_terms
 from ffrf_advisor.sim.integrate import Loads, integrate
-from ffrf_advisor.sim.linearise import static_deflection
+from ffrf_advisor.sim.linearise import modal_spectrum, static_deflection
 from ffrf_advisor.sim.model import build_model, initial_state
 from ffrf_advisor.significance import softening_speeds
 from ffrf_advisor.terms import is_lagrangian
 from ffrf_advisor.verify import measures
+from ffrf_advisor.zoo import zoo_body
 
 DIR = Path(__file__).resolve().parent.parent / "sample_bodies"
 runner = CliRunner()
@@ -151,3 +152,48 @@ def test_a_speed_range_advises_for_its_top_and_the_speeds_below():
     assert json.loads(result.stdout)["situation"]["speed_range_rad_s"] == [0.0, 800.0]
     both = runner.invoke(app, ["analyze", str(DIR / "conrod.ffrf.h5"), "--speed-range", "0..1", "--speed", "1"])
     assert both.exit_code == 2
+
+
+@pytest.fixture(scope="module")
+def ring():
+    return zoo_body("ring", 1000)
+
+
+@pytest.fixture(scope="module")
+def shaft():
+    return zoo_body("shaft", 1000)
+
+
+def _pair_split(body, s: float) -> float:
+    """Half the split of the lowest mode pair of the full set at spin s about axis 3 [rad / time]."""
+    f = modal_spectrum(build_model(body, reference_terms(body)), np.eye(3)[2], s)[0]
+    return np.pi * (f[1] - f[0])
+
+
+def _level_III_frequency_error(body, s: float) -> float:
+    sets = [(label, terms) for label, terms in candidate_sets(body, stiff=True) if label == "III"]
+    return predictions(body, sets, [np.eye(3)[2]], [s], q_max(body).q_max, 500.0, stiff=True)[0].errors["frequency"]
+
+
+def test_a_thin_ring_spun_about_its_axis_splits_its_n2_pair_by_bryans_factor(ring):
+    """Bryan (1890): the in-plane n = 2 pair of a thin ring spinning at s splits by +-2n/(n^2+1) s = +-0.8 s in
+    the rotating frame (within 1 %: the ring's thickness, t/R <= 0.12, and the FE mesh); level III misses the
+    split, which its predicted frequency error is; past the tolerance the advice adds the gyroscopic terms."""
+    om = np.sqrt(ring.eigenvalues[0])
+    s = 0.01 * om
+    assert _pair_split(ring, s) == pytest.approx(0.8 * s, rel=0.01)
+    assert _level_III_frequency_error(ring, s) == pytest.approx(0.8 * s / (om - 0.8 * s), rel=0.02)
+    fast = analyze(ring, Options(situation=Situation(w_op=0.05 * om, principal_axis=3)))
+    assert "cor_coupling" in fast.advice.terms
+
+
+def test_a_shaft_spun_about_its_axis_whirls_forward_and_backward(shaft):
+    """A slender shaft in its rotating frame: its bending pair at Omega goes to Omega -+ s (forward and backward
+    whirl seen from the shaft; within 2 %: the sections' rotary inertia, (radius / length)^2); level III keeps
+    the pair at Omega, and the advice adds the gyroscopic terms past the tolerance."""
+    om = np.sqrt(shaft.eigenvalues[0])
+    s = 0.01 * om
+    assert _pair_split(shaft, s) == pytest.approx(s, rel=0.02)
+    assert _level_III_frequency_error(shaft, s) == pytest.approx(s / (om - s), rel=0.03)
+    fast = analyze(shaft, Options(situation=Situation(w_op=0.05 * om, principal_axis=3)))
+    assert "cor_coupling" in fast.advice.terms

@@ -150,7 +150,7 @@ def test_compare_prints_the_table_and_json(shipped):
     assert table.exit_code == 0, table.output
     for label in ("genstruct1", "carbody", "dI_L axes 1 2 3", "Coriolis ratio", "q_max"):
         assert label in table.output
-    result = runner.invoke(app, ["compare", *files, "--speed", "1rad/s", "--json"])
+    result = runner.invoke(app, ["compare", *files, "--speed", "1rad/s", "--rules", "thresholds", "--json"])
     data = json.loads(result.stdout)
     by_name = {b["name"]: b for b in data["bodies"]}
     assert set(by_name) == set(SAMPLES)

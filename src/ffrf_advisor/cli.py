@@ -37,8 +37,8 @@ from .terms import parse_terms
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,  # help texts keep [units]
                   help="Which FFRF inertia terms does a flexible body need? Advice with evidence.")
-out = Console()
-err = Console(stderr=True)
+out = Console(emoji=False)  # names like zoo:ring:1003 stay text (":ring:" is an emoji code)
+err = Console(stderr=True, emoji=False)
 
 EXIT_BAD_INPUT = 2
 

@@ -10,12 +10,11 @@ bounds one response error of ``verify`` (verify.measures), on its scales:
   degenerate pair split by the spin counts); ``max |f_T - f_R| / f_R``.
   Bounds the response error of a run that drifts in phase.
 - ``mixing``: the shape change by the flexible gyroscopic matrix
-  ``Gy = 2 s sum_k a_k W3k^T`` (term ``cor_coupling``) that T lacks: first
-  order perturbation mixes mode q into mode p by
-  ``Omega_q |Gy_pq| / |Omega_p^2 - Omega_q^2|``. Pairs closer than the
-  coupling (``|Omega_p - Omega_q| <= |Gy_pq|``) split instead of mixing, which
-  ``frequency`` measures. Bounds the change of oscillation amplitudes and
-  peak stress where frequencies barely move.
+  ``Gy = 2 s sum_k a_k W3k^T`` (term ``cor_coupling``) that T lacks: mode q
+  takes mode p along by ``c_pq = g / sqrt((Omega_p^2 - Omega_q^2)^2 + g^2)``,
+  ``g = Omega_q |Gy_pq|`` (first-order perturbation far from degeneracy, 1
+  for a degenerate pair, which the spin turns into a whirl). Bounds the
+  change of peak stress where frequencies barely move.
 - ``static``: the static centrifugal deflection of each set at spin s
   (``q`` with flexible force 0), its stress ``sum_p sigma_p |dq_p|`` and
   deflection ``|dq|``, times the dynamic load factor 2 of a sudden load,
@@ -132,8 +131,8 @@ def mixing(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray, sigma
     W3k = body.integrals.W3().reshape(3, nf, nf)
     Gy = np.abs(2 * s * np.einsum("k,krs->sr", a, W3k))
     om = np.sqrt(np.abs(body.eigenvalues))
-    split = np.abs(om[:, None] - om[None, :]) <= Gy
-    c = np.where(split, 0.0, om[None, :] * Gy / np.maximum(np.abs(om[:, None] ** 2 - om[None, :] ** 2), 1e-300))
+    coupled = om[None, :] * Gy
+    c = coupled / np.maximum(np.hypot(om[:, None] ** 2 - om[None, :] ** 2, coupled), 1e-300)
     np.fill_diagonal(c, 0.0)
     if body.sigma_max is None:
         return float(np.linalg.norm(c @ q_max) / max(np.linalg.norm(q_max), 1e-300))

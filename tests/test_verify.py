@@ -22,9 +22,9 @@ from ffrf_advisor.sim.model import build_model
 from ffrf_advisor.significance import softening_speeds
 from ffrf_advisor.terms import FULL, LEVEL_SETS
 from ffrf_advisor.verify import stability
-from ffrf_advisor.verify.measures import QUANTITIES, RESPONSE
-from ffrf_advisor.verify.runner import for_scenes, judge, verify
-from ffrf_advisor.verify.scenes import SCENES, make_scene
+from ffrf_advisor.verify.measures import QUANTITIES, RESPONSE, worst
+from ffrf_advisor.verify.runner import SELF_CHECK, for_scenes, judge, verify
+from ffrf_advisor.verify.scenes import SCENES, SceneOptions, make_scene, make_scenes, scene_axes
 from ffrf_advisor.verify.study import drift_curves
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -78,7 +78,7 @@ def test_a_broken_advice_is_called_unsafe(beam):
     v = verify(bad, [make_scene("free-spin", bad)], repeats=1)
     assert v.verdict.verdict == "unsafe" and "FAILED" in v.verdict.text
     assert {q for _, q, _ in v.verdict.broken} & set(RESPONSE)
-    strict = judge(bad, v.results, 0.01, "trajectory")
+    strict = judge(bad, v.results, v.references, 0.01, "trajectory")
     assert strict.verdict == "unsafe" and {q for _, q, _ in strict.broken} <= set(QUANTITIES)
 
 
@@ -90,6 +90,72 @@ def test_the_advice_is_checked_at_the_highest_spin_of_the_scenes():
     assert b.options.situation.w_op == pytest.approx(softening_speeds(a.body).min() / 100, rel=1e-9)
     assert a.advice.level == "I" and "cf1" in b.advice.terms
     assert for_scenes(b, scenes) is b
+
+
+# ---------------------------------------------------------------- every axis the advice covers; converged references
+@pytest.fixture(scope="module")
+def bar():
+    """A steel bar 300 x 20 x 10 mm with 2 modes at 200 rad/s: I0 smallest about axis 1, largest about axis 3."""
+    body = modal_body(box_mesh([300.0, 20.0, 10.0], [6, 1, 1], "hexahedron20"), STEEL, 2, name="bar")
+    return analyze(body, Options(situation=Situation(w_op=200.0)))
+
+
+@pytest.fixture(scope="module")
+def bar_verified(bar):
+    """free-spin and minor-axis, 5 ms each (a few turns at 200 rad/s, 3 periods of mode 1), without --axis."""
+    scenes = make_scenes(["free-spin", "minor-axis"], bar, SceneOptions(duration=0.005))
+    return verify(bar, scenes, repeats=1)
+
+
+def test_without_axis_the_scenes_run_about_both_rigidly_stable_axes_and_the_advice_spin_axis(bar, bar_verified):
+    assert np.argmin(np.diag(bar.body.I0)) == 0 and np.argmax(np.diag(bar.body.I0)) == 2
+    axes = {(r.scene.split(" (")[0], int(r.scene[-2])) for r in bar_verified.results}
+    assert axes == {("free-spin", 1), ("free-spin", 3), ("minor-axis", 1)}
+    assert {sc.label for sc in bar_verified.scenes} == set(bar_verified.scene_verdicts)
+    assert scene_axes(bar, SceneOptions(axis=2)) == (1,)
+    assert [s.axis for s in make_scenes(["free-spin", "minor-axis"], bar, SceneOptions(axis=2))] == [1, 1]
+    about_2 = analyze(bar.body, Options(situation=Situation(w_op=200.0, spin_axis=(0.0, -1.0, 0.0))))
+    assert sorted(scene_axes(about_2)) == [0, 1, 2]
+    oblique = analyze(bar.body, Options(situation=Situation(w_op=200.0, spin_axis=(0.0, 1.0, 1.0))))
+    assert sorted(scene_axes(oblique)) == [0, 2]
+
+
+def _spoiled(v, label, **errors):
+    """The results with the advised set's errors in scene ``label`` replaced."""
+    from dataclasses import replace
+    return tuple(replace(r, errors={**r.errors, **errors}) if r.scene == label and r.set.label == "advised" else r
+                 for r in v.results)
+
+
+def test_the_verdict_covers_every_axis_the_worst_decides(bar, bar_verified):
+    assert bar_verified.verdict.verdict in ("agree", "conservative"), bar_verified.verdict.text
+    results = _spoiled(bar_verified, "free-spin (axis 3)", q_response=0.5)
+    v = judge(bar, results, bar_verified.references, 0.01)
+    assert v.verdict == "unsafe" and {s for s, _, _ in v.broken} == {"free-spin (axis 3)"}
+
+
+def test_a_scene_whose_reference_did_not_self_converge_gives_no_verdict_and_does_not_count(bar, bar_verified):
+    """Scene axis 3's reference made unconverged (self-error 0.2 against 1e-3): its broken advice does not count."""
+    from dataclasses import replace
+    label = "free-spin (axis 3)"
+    refs = dict(bar_verified.references)
+    refs[label] = replace(refs[label], self_error={k: 0.2 for k in refs[label].self_error})
+    v = judge(bar, _spoiled(bar_verified, label, q_response=0.5), refs, 0.01)
+    assert v.verdict == bar_verified.verdict.verdict and not v.broken
+    assert [s for s, _ in v.unjudged] == [label] and "1 of 3 scenes gave no verdict" in v.text
+    assert "difference 0.2" in v.unjudged[0][1] and "of the body's largest dimension" in v.unjudged[0][1]
+    alone = judge(bar, tuple(r for r in bar_verified.results if r.scene == label), refs, 0.01)
+    assert alone.verdict == "no verdict" and alone.cheapest is None and "did not self-converge" in alone.text
+
+
+def test_a_tolerance_below_the_references_accuracy_gives_no_verdict_anywhere(bar, bar_verified):
+    """The genuine path: verify at a tolerance whose tenth the references (rtol 1e-10) cannot reach."""
+    least = min(worst(r.self_error, "response") for r in bar_verified.references.values())
+    tolerance = least / (SELF_CHECK * 10)  # its tenth is below every reference's self-error
+    scenes = make_scenes(["free-spin"], bar, SceneOptions(duration=0.005))
+    v = verify(bar, scenes, tolerance, repeats=1)
+    assert v.verdict.verdict == "no verdict" and len(v.verdict.unjudged) == 2
+    assert all(sv.verdict == "no verdict" for sv in v.scene_verdicts.values())
 
 
 # ---------------------------------------------------------------- stability where methods fail
@@ -169,8 +235,11 @@ def test_verify_command_on_a_small_body_writes_json_and_figures(tmp_path):
     assert r.returncode == 0, r.stderr
     data = json.loads(r.stdout)
     jsonschema.validate(data, schema("verify"))
-    assert [s["name"] for s in data["scenes"]] == ["free-spin", "torque-pulse"]
-    for stem in ("work_precision", "drift", "stability", "campbell", "trajectories_free-spin"):
+    assert [(s["name"], s["axis"]) for s in data["scenes"]] == [("free-spin", 1), ("free-spin", 3),
+                                                                 ("torque-pulse", 1), ("torque-pulse", 3)]
+    assert all(s["reference"]["self_check"]["converged"] for s in data["scenes"])
+    for stem in ("work_precision", "drift", "stability", "campbell", "trajectories_free-spin_axis1",
+                 "trajectories_free-spin_axis3"):
         for suffix in ("png", "svg"):
             assert (out / f"{stem}.{suffix}").stat().st_size > 1000
     assert (out / "work_precision.png").read_bytes()[:4] == b"\x89PNG"

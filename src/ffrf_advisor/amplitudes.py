@@ -11,6 +11,11 @@ from .units import TMM, factor
 
 SIGMA_ALLOW = 500.0  # N/mm^2, the paper's allowable stress
 Q_CAP = 1.0          # in t-mm units: sqrt(t) * mm
+# Largest nodal deflection at q_max over the largest body dimension above which analyze warns (theory 6). The FFRF
+# keeps the modal kinematics linear (u = S q, and the inertia invariants to second order in q), which holds for
+# small deformations only: the paper asks for deflections one to two orders of magnitude below the body's size,
+# and Adams checks modal deflections against a characteristic length. 5 % is the lenient end of that (1/20).
+SMALL_DEFORMATION = 0.05
 
 
 @dataclass(frozen=True)
@@ -56,6 +61,30 @@ def _mode1(body: FlexibleBody, opts: AmplitudeOptions, q_cap: float, sigma_allow
     return candidates[name], name, warnings
 
 
+def _bound(opts: AmplitudeOptions, criterion: str) -> tuple[str, str]:
+    """What bounded q_max (the ``governs`` of mode 1) and the options that lower it."""
+    if criterion == "user":
+        return "q_max was given per mode (--q-max)", "smaller --q-max values"
+    if criterion == "deflection":
+        return f"q_max,1 was bounded by the deflection cap {opts.deflection_cap:g}", "a smaller --deflection-cap"
+    bound = (f"the q_cap of {opts.q_cap:g} t-mm units" if criterion == "cap"
+             else f"the stress (sigma_allow {opts.sigma_allow:g} N/mm^2 / sigma_1)")
+    return (f"q_max,1 was bounded by {bound}",
+            f"--deflection-cap {SMALL_DEFORMATION:g} (bounds q_max,1 by the deflection), or a smaller --q-cap or "
+            "--sigma-allow")
+
+
+def small_deformation_warnings(ratio: np.ndarray | None, governs: tuple[str, ...], opts: AmplitudeOptions) -> list[str]:
+    """A warning when a mode at q_max deflects more than SMALL_DEFORMATION of the body's size (theory 6)."""
+    if ratio is None or ratio.max() <= SMALL_DEFORMATION:
+        return []
+    p = int(np.argmax(ratio))
+    bound, fix = _bound(opts, governs[0])
+    return [f"large deformation: at q_max mode {p + 1} deflects {ratio[p]:.3g} of the body's largest dimension, "
+            f"above {SMALL_DEFORMATION:g} (the FFRF's linear modal kinematics need small deformations); {bound}; "
+            f"fix: {fix}"]
+
+
 def q_max(body: FlexibleBody, opts: AmplitudeOptions = AmplitudeOptions()) -> Amplitudes:
     """The paper's procedure: q_max,1 = min(q_cap, sigma_allow / sigma_1), q_max,p = q_max,1 lambda_1 / lambda_p."""
     q_cap = opts.q_cap * factor(TMM, body.units, "q")
@@ -74,4 +103,5 @@ def q_max(body: FlexibleBody, opts: AmplitudeOptions = AmplitudeOptions()) -> Am
     utilisation = None if body.sigma_max is None else body.sigma_max * q / sigma_allow
     ratio = None if deflection is None else deflection * q / body.largest_dimension()
     bounds = (1 / np.sqrt(3 * body.mass), 1 / np.sqrt(body.mass))
+    warnings += small_deformation_warnings(ratio, governs, opts)
     return Amplitudes(q, governs, q_cap, sigma_allow, utilisation, ratio, bounds, tuple(warnings))

@@ -570,22 +570,23 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    step: Optional[float] = typer.Option(None, "--step", help="Step [s] of a fixed-step integrator."),
                    rtol: float = typer.Option(1e-8, "--rtol", help="Relative tolerance of an adaptive integrator."),
                    repeats: int = typer.Option(3, "--repeat", help="Timed repeats (serial; the minimum counts)."),
-                   axis: Optional[int] = typer.Option(None, "--axis", help="Principal axis of the scenes (1-3)."),
+                   axis: Optional[int] = typer.Option(None, "--axis", help="Principal axis of the scenes (1-3; default: each rigidly stable principal axis)."),
                    criterion: str = typer.Option("response", "--criterion",
                                                  help="Judge by response errors (frequencies, means, oscillation "
                                                       "sizes, peak stress) or by trajectory errors."),
                    output: Optional[Path] = typer.Option(None, "--output", "-o", help="Directory for the figures."),
                    as_json: VerifyJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
                    widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
-                   threshold: Threshold = None, config: Config = None, rules: Rules = None):
+                   threshold: Threshold = None, config: Config = None, rules: Rules = None,
+                   spin_axis: SpinAxis = None, deflection_cap: DeflCap = None, q_max: QMax = None):
     """Verify the advice by simulation: scenes, term sets, errors, cost, stability, Campbell, figures."""
     from .verify.scenes import SceneOptions
     from .report.verify_json import study_json
     from .verify.study import run_study
     names = list(scene or SCENES)
     check_verify_options(names, tolerance, integrator, step, rtol, repeats, output, criterion)
-    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, threshold=threshold, config=config,
-                            tolerance=tolerance, rules=rules)
+    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
+                            threshold=threshold, config=config, spin_axis=spin_axis, tolerance=tolerance, rules=rules)
     b = _read(body)
     result = run_analysis(b, options)
     h = None if step is None else simulation_setup(b, 1.0, step, None, integrator).step

@@ -6,6 +6,9 @@ from dataclasses import asdict
 import numpy as np
 
 from ..units import TIME
+from ..verify.runner import REF_RTOL, SELF_CHECK, Verdict
+from ..verify.measures import worst
+from ..verify.scenes import Scene
 from ..verify.study import Study
 from ..verify.workprecision import pareto
 from .json_out import json_number
@@ -30,6 +33,25 @@ def _clean(obj):
     return obj
 
 
+def _verdict(v: Verdict) -> dict:
+    return {"verdict": v.verdict, "advised_level": v.advised_level, "cheapest": v.cheapest, "text": v.text,
+            "broken": [{"scene": s, "quantity": q, "error": e} for s, q, e in v.broken],
+            "unjudged": [{"scene": s, "reason": why} for s, why in v.unjudged]}
+
+
+def _scene(st: Study, s: Scene, per_s: float) -> dict:
+    """A scene, its reference with the self-check, and its own verdict."""
+    ver = st.verification
+    ref, verdict = ver.references[s.label], ver.scene_verdicts[s.label]
+    check = {"error": worst(ref.self_error, ver.criterion), "limit": SELF_CHECK * ver.tolerance,
+             "converged": not verdict.unjudged}
+    return {"name": s.name, "label": s.label, "axis": s.axis + 1, "duration": s.duration,
+            "speed_rad_s": s.speed / per_s, "damping": s.damping, "text": s.text,
+            "reference": {"integrator": "dop853", "rtol": REF_RTOL, "self_error": ref.self_error,
+                          "self_check": check, "wall_s": ref.wall_s},
+            "verdict": _verdict(verdict)}
+
+
 def study_json(st: Study, source: str) -> dict:
     """The documented JSON of ``verify --json`` (src/ffrf_advisor/schemas/verify.json)."""
     a, ver = st.analysis, st.verification
@@ -42,18 +64,13 @@ def study_json(st: Study, source: str) -> dict:
         "tolerance": ver.tolerance,
         "criterion": ver.criterion,
         "integrator": ver.integrator,
-        "scenes": [{"name": s.name, "label": s.label, "axis": s.axis + 1, "duration": s.duration,
-                    "speed_rad_s": s.speed / per_s, "damping": s.damping, "text": s.text,
-                    "reference": {"integrator": "dop853", "rtol": 1e-10, "self_error": ver.references[s.label].self_error,
-                                  "wall_s": ver.references[s.label].wall_s}} for s in ver.scenes],
+        "scenes": [_scene(st, s, per_s) for s in ver.scenes],
         "results": [{"set": r.set.label, "terms": list(r.set.terms), "lagrangian": r.set.lagrangian,
                      "scene": r.scene, "errors": r.errors, "meets": r.meets(ver.tolerance, ver.criterion),
                      "energy_drift": r.energy_drift, "H_drift": r.H_drift, "wall_s": r.wall_s,
                      "rhs_evaluations": r.nfev, "failed": r.failed, "reason": r.reason, "speedup": r.speedup}
                     for r in ver.results],
-        "verdict": {"verdict": ver.verdict.verdict, "advised_level": ver.verdict.advised_level,
-                    "cheapest": ver.verdict.cheapest, "text": ver.verdict.text,
-                    "broken": [{"scene": s, "quantity": q, "error": e} for s, q, e in ver.verdict.broken]},
+        "verdict": _verdict(ver.verdict),
         "work_precision": {"scene": ver.scenes[0].label, "timing": "wall time, minimum over repeats, taken serially "
                            "on this machine", "points": st.work_precision, "pareto": pareto(st.work_precision)},
         "stability": st.stability,

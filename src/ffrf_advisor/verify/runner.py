@@ -1,8 +1,11 @@
 """Run the reference and the term sets through the scenes; errors, cost, speed-up and the verdict (theory section 10).
 
 Reference: the full term set with DOP853 at ``REF_RTOL``, checked by
-self-convergence against a run at ``REF_RTOL / 100`` (their difference is
-reported and must be far below the smallest error that matters). Every
+self-convergence against a run at ``REF_RTOL / 100``: their difference, by
+the criterion, must stay below ``SELF_CHECK`` times the tolerance, else the
+scene gives no verdict (an unconverged reference cannot tell a set's error
+from its own; chaotic motion, or amplitudes far outside small deformations,
+theory 6). Every
 set is run with the same integrator and sampled on the reference's grid;
 its wall time is the minimum over repeats taken serially. A set meets the
 tolerance by a criterion (``measures.CRITERIA``): ``response`` (default:
@@ -17,6 +20,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..amplitudes import SMALL_DEFORMATION
 from ..analysis import Analysis, analyze
 from ..response import frequency_change
 from ..sim.integrate import FIXED, Run, integrate
@@ -28,6 +32,7 @@ from .measures import CRITERIA, errors, worst
 from .scenes import Scene
 
 REF_RTOL = 1e-10
+SELF_CHECK = 0.1  # the reference's self-convergence error must stay below this share of the tolerance
 SAMPLES = 400  # samples per scene, shared by every run
 
 
@@ -69,13 +74,15 @@ class Reference:
 
 @dataclass(frozen=True)
 class Verdict:
-    """'agree', 'conservative' or 'unsafe', what broke the advice, and the cheapest adequate canonical set."""
+    """'agree', 'conservative', 'unsafe' or 'no verdict', what broke the advice, the cheapest adequate canonical
+    set, and the scenes without a verdict (their reference did not self-converge)."""
 
     verdict: str
     advised_level: str
     cheapest: str | None
     broken: tuple[tuple[str, str, float], ...]  # (scene, quantity, error) above the tolerance
     text: str
+    unjudged: tuple[tuple[str, str], ...] = ()  # (scene, why it gives no verdict)
 
 
 @dataclass(frozen=True)
@@ -86,6 +93,7 @@ class Verification:
     references: dict
     results: tuple[SetResult, ...]
     verdict: Verdict
+    scene_verdicts: dict  # scene label -> its own Verdict
     criterion: str = "response"
     extra: dict = field(default_factory=dict)
 
@@ -197,15 +205,61 @@ def verify(a: Analysis, scenes, tolerance: float = 0.01, integrator: str = "dop8
         rows = [run_set(a, ts, scene, ref, integrator, step, rtol, repeats) for ts in sets]
         full = next(r for r in rows if r.set.label == "IV (full)")
         results += [_with_speedup(r, full.wall_s) for r in rows]
-    return Verification(tolerance, integrator, tuple(scenes), refs, tuple(results),
-                        judge(a, tuple(results), tolerance, criterion), criterion)
+    results = tuple(results)
+    per_scene = {sc.label: judge(a, tuple(r for r in results if r.scene == sc.label), refs, tolerance, criterion)
+                 for sc in scenes}
+    return Verification(tolerance, integrator, tuple(scenes), refs, results,
+                        judge(a, results, refs, tolerance, criterion), per_scene, criterion)
 
 
 def _with_speedup(r: SetResult, full_wall: float) -> SetResult:
     return replace(r, speedup=full_wall / r.wall_s if r.wall_s > 0 else None)
 
 
-def judge(a: Analysis, results: tuple[SetResult, ...], tolerance: float, criterion: str = "response") -> Verdict:
+def self_check(a: Analysis, ref: Reference, tolerance: float, criterion: str) -> str | None:
+    """Why a scene gives no verdict: its reference's self-convergence error by ``criterion`` above SELF_CHECK x
+    tolerance (theory 10: far below the smallest error that matters); None when it converged."""
+    e = worst(ref.self_error, criterion)
+    limit = SELF_CHECK * tolerance
+    if e <= limit:
+        return None
+    return (f"reference did not self-converge: difference {e:.3g} between rtol {REF_RTOL:g} and {REF_RTOL / 100:g} "
+            f"> tolerance/{1 / SELF_CHECK:g} = {limit:.3g}; likely chaotic motion or an amplitude outside small "
+            f"deformations{_deflection_note(a)}")
+
+
+def _deflection_note(a: Analysis) -> str:
+    """The largest modal deflection ratio at q_max (theory 6), when the body has nodal modes."""
+    r = a.amplitudes.deflection_ratio
+    if r is None:
+        return ""
+    p = int(np.argmax(r))
+    side = "above" if r[p] > SMALL_DEFORMATION else "within"
+    return (f" (at q_max mode {p + 1} deflects {r[p]:.2g} of the body's largest dimension, {side} small deformations, "
+            f"{SMALL_DEFORMATION:g})")
+
+
+def judge(a: Analysis, results: tuple[SetResult, ...], references: dict, tolerance: float,
+          criterion: str = "response") -> Verdict:
+    """The verdict over the scenes of ``results`` whose reference self-converged (the worst decides); the others
+    give no verdict and are named."""
+    scenes = dict.fromkeys(r.scene for r in results)
+    unjudged = tuple((s, why) for s in scenes if (why := self_check(a, references[s], tolerance, criterion)))
+    skipped = {s for s, _ in unjudged}
+    judged = tuple(r for r in results if r.scene not in skipped)
+    if not judged:
+        text = (f"no verdict: {unjudged[0][0]}: {unjudged[0][1]}" if len(unjudged) == 1 else
+                f"no verdict: the reference did not self-converge in any of the {len(unjudged)} scenes "
+                f"({', '.join(s for s, _ in unjudged)}); each scene says why")
+        return Verdict("no verdict", a.advice.level, None, (), text, unjudged)
+    v = _judge_converged(a, judged, tolerance, criterion)
+    if not unjudged:
+        return v
+    return replace(v, unjudged=unjudged, text=f"{v.text}; {len(unjudged)} of {len(scenes)} scenes gave no verdict "
+                   f"and do not count (reference did not self-converge): {', '.join(s for s, _ in unjudged)}")
+
+
+def _judge_converged(a: Analysis, results: tuple[SetResult, ...], tolerance: float, criterion: str) -> Verdict:
     """Whether the advice meets the tolerance everywhere, what broke it, and the cheapest adequate level."""
     advised = [r for r in results if r.set.label == "advised"]
     broken = tuple((r.scene, q, float(r.errors[q])) for r in advised for q in CRITERIA[criterion]

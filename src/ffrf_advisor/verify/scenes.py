@@ -7,7 +7,7 @@ Speeds are in rad per body time unit, durations in body time units.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -17,6 +17,7 @@ from ..sim.integrate import Loads
 from ..units import TIME
 
 SCENES = ("free-spin", "spin-up", "torque-pulse", "minor-axis")
+ABOUT_AN_AXIS = ("free-spin", "spin-up", "torque-pulse")  # run about each axis of scene_axes; minor-axis is not
 
 
 @dataclass(frozen=True)
@@ -184,3 +185,33 @@ def make_scene(name: str, a: Analysis, opts: SceneOptions = SceneOptions()) -> S
     if name not in BUILDERS:
         raise FFRFError(f"--scene {name!r}: expected one of {', '.join(SCENES)}")
     return BUILDERS[name](a, opts)
+
+
+def principal_spin_axis(a: Analysis) -> int | None:
+    """The 0-based principal axis the analysis' one spin axis lies along (``--spin-axis``); None when the advice is
+    for every principal axis or for an oblique one."""
+    axes = a.options.situation.axes()
+    if len(axes) != 1:
+        return None
+    e = np.abs(axes[0])  # a unit vector
+    k = int(np.argmax(e))
+    return k if e[k] > 1 - 1e-9 else None
+
+
+def scene_axes(a: Analysis, opts: SceneOptions = SceneOptions()) -> tuple[int, ...]:
+    """0-based axes of the scenes about an axis: ``opts.axis`` alone when given; else the rigidly stable principal
+    axes (the deformation axis first, then the other one), which the advice covers ("each principal axis, the worst
+    decides"; the intermediate one is rigidly unstable), and the advice's principal spin axis (theory 8, 10)."""
+    if opts.axis is not None:
+        return (_axis(a, opts, 0),)
+    first = deformation_axis(a)
+    axes = [first, *stable_axes(a), principal_spin_axis(a)]
+    return tuple(dict.fromkeys(k for k in axes if k is not None))
+
+
+def make_scenes(names, a: Analysis, opts: SceneOptions = SceneOptions()) -> list[Scene]:
+    """The named scenes, those about an axis once per ``scene_axes`` (the first is the one about the deformation
+    axis, or about ``opts.axis``); minor-axis once."""
+    axes = scene_axes(a, opts)
+    return [make_scene(n, a, o) for n in names
+            for o in ([replace(opts, axis=k + 1) for k in axes] if n in ABOUT_AN_AXIS else [opts])]

@@ -18,7 +18,7 @@ from ..sim.model import build_model
 from ..terms import FULL, LEVEL_SETS
 from . import stability
 from .runner import Verification, for_scenes, run_scene, term_sets, verify
-from .scenes import Scene, SceneOptions, default_speed, make_scene, stable_axes
+from .scenes import Scene, SceneOptions, default_speed, make_scenes, stable_axes
 from .workprecision import Point, pareto, work_precision
 
 CAMPBELL_POINTS = 26  # 25 intervals: no sample falls exactly on s_crit (= top / 1.2)
@@ -85,8 +85,9 @@ def stability_studies(a: Analysis, scene: Scene) -> dict:
 def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str = "dop853",
               step: float | None = None, rtol: float = 1e-8, repeats: int = 3, directory: Path | None = None,
               scene_options: SceneOptions = SceneOptions(), criterion: str = "response") -> Study:
-    """Everything ``verify`` reports; figures go to ``directory`` when given."""
-    scenes = [make_scene(n, a, scene_options) for n in scene_names]
+    """Everything ``verify`` reports; figures go to ``directory`` when given. The scenes and the verdict cover every
+    axis of ``scenes.scene_axes``; work-precision, stability and drift use the first scene, Campbell all axes."""
+    scenes = make_scenes(scene_names, a, scene_options)
     a = for_scenes(a, scenes)
     ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion)
     first = scenes[0]
@@ -100,7 +101,7 @@ def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str
 
 def write_figures(a: Analysis, ver: Verification, points, camp: dict, stab: dict, scene: Scene,
                   directory: Path) -> tuple[str, ...]:
-    """trajectories_<scene>, work_precision, drift, stability and campbell, each as PNG and SVG."""
+    """trajectories_<scene>_axis<k>, work_precision, drift, stability and campbell, each as PNG and SVG."""
     directory.mkdir(parents=True, exist_ok=True)
     unit = a.body.units.time
     paths = []
@@ -109,7 +110,7 @@ def write_figures(a: Analysis, ver: Verification, points, camp: dict, stab: dict
                       for ts in term_sets(a)}
         paths += fig.save(fig.trajectories(ver.references[sc.label].run, model_runs, a.body.sigma_max, unit,
                                            a.body.units.stress, f"{a.body.name}: {sc.label}"),
-                          directory, f"trajectories_{sc.name}")
+                          directory, f"trajectories_{sc.name}_axis{sc.axis + 1}")
     paths += fig.save(fig.work_precision_chart(points, pareto(points),
                                                f"{a.body.name}: {scene.label}, work-precision (timings serial)"),
                       directory, "work_precision")

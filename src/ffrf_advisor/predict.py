@@ -10,11 +10,12 @@ bounds one response error of ``verify`` (verify.measures), on its scales:
   degenerate pair split by the spin counts); ``max |f_T - f_R| / f_R``.
   Bounds the response error of a run that drifts in phase.
 - ``mixing``: the shape change by the flexible gyroscopic matrix
-  ``Gy = 2 s sum_k a_k W3k^T`` (term ``cor_coupling``) that T lacks: mode q
-  takes mode p along by ``c_pq = g / sqrt((Omega_p^2 - Omega_q^2)^2 + g^2)``,
-  ``g = Omega_q |Gy_pq|`` (first-order perturbation far from degeneracy, 1
-  for a degenerate pair, which the spin turns into a whirl). Bounds the
-  change of peak stress where frequencies barely move.
+  ``Gy = 2 s sum_k a_k W3k^T`` (term ``cor_coupling``) that T lacks: from a
+  pure mode q, mode p gains ``|Gy_pq| / nu |sin(nu t / 2)|`` with
+  ``nu = sqrt((Omega_p - Omega_q)^2 + Gy_pq^2)`` (two coupled modes), at most
+  ``min(|Gy_pq| / nu, |Gy_pq| T / 2)`` within the response time T; as stress
+  moved between the modes at q_max. Bounds the change of peak stress where
+  frequencies barely move (close modes; a degenerate pair's whirl).
 - ``static``: the static centrifugal deflection of each set at spin s
   (``q`` with flexible force 0), its stress ``sum_p sigma_p |dq_p|`` and
   deflection ``|dq|``, times the dynamic load factor 2 of a sudden load,
@@ -22,12 +23,14 @@ bounds one response error of ``verify`` (verify.measures), on its scales:
   ``max(2 |q_R|, FLOOR |q_max|)``); a set without cf1 also misses the
   exact static FE solution's stress where the body carries it (theory 11:
   the modes may not span the widening).
-- ``inertia``: the relative change of the rotational inertia seen by w
-  (``I_TT - C C^T``, theory 7) that T leaves out, at the deformation of the
-  spinning body (static deflection plus every mode at q_max), bounded by the
-  triangle inequality over the modes: ``max_k |dI e_k| / I0_kk``. A free
-  spin keeps ``I w``, so w errs by this much. A stiffly connected body's
-  rotation is imposed: no inertia error then.
+- ``rigid``: the relative error of w. A free spin keeps ``I w + C q'``:
+  the inertia change (``I_TT - C C^T``, theory 7) that T leaves out, at the
+  deformation of the spinning body (static deflection plus every mode at
+  q_max), ``max_k |dI e_k| / I0_kk``, and the internal angular momentum of
+  the vibrating modes ``C q'`` that a set without the W3 group leaves out,
+  over ``I0_kk s`` (large at low spin); both bounded by the triangle
+  inequality over the modes. A stiffly connected body's rotation is imposed:
+  no rigid error then.
 
 At rest (s = 0) every set has the frequencies Omega and no load: all four
 vanish (a torque pulse from rest leaves the modes at rest to first order).
@@ -47,7 +50,7 @@ from .sim.linearise import modal_spectrum, static_deflection
 from .sim.model import Model, build_model
 from .terms import FULL, GROUPS, LEVEL_SETS, is_lagrangian, lagrangian_superset, ordered
 
-KINDS = ("frequency", "mixing", "static", "inertia")
+KINDS = ("frequency", "mixing", "static", "rigid")
 MARGIN = 2.0   # a set is adequate when every prediction is below tolerance / MARGIN (first-order estimates add)
 DLF = 2.0      # dynamic load factor of a sudden load (theory 10, spin-up and torque pulse)
 FLOOR = 0.1    # of |q_max| and sigma_allow: the floors of verify.measures (tested equal)
@@ -121,18 +124,25 @@ def _matched_error(f_ref: np.ndarray, V_ref: np.ndarray, f: np.ndarray, V: np.nd
     return float(np.max(rel[rows, cols]))
 
 
+def response_time(f1: float, s: float) -> float:
+    """How long a response is watched: a few periods of mode 1 and of the rotation, at most 50 of mode 1 (the
+    free-spin scene of verify, theory 10); ``f1`` in 1/time, ``s`` in rad/time."""
+    return min(max(5 / f1, 3 * 2 * np.pi / s), 50 / f1)
+
+
 def mixing(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray, sigma_allow: float) -> float:
-    """What the flexible gyroscopic matrix at spin s about a moves between the modes at q_max: the mixing
-    ``c_pq`` of mode q into mode p, summed over the modes as stress ``sum_pq sigma_p c_pq q_max,q`` (or as
+    """Stress the flexible gyroscopic matrix at spin s about a moves between the modes at q_max within the
+    response time: ``sum_pq sigma_p c_pq q_max,q`` with ``c_pq = min(|Gy_pq| / nu_pq, |Gy_pq| T / 2)`` (or the
     deflection ``|c q_max|`` without stress data), over the scale of verify."""
     nf = body.nf
-    if nf < 2 or "W3" in body.integrals.missing:
+    if nf < 2 or s <= 0 or "W3" in body.integrals.missing:
         return 0.0
     W3k = body.integrals.W3().reshape(3, nf, nf)
     Gy = np.abs(2 * s * np.einsum("k,krs->sr", a, W3k))
     om = np.sqrt(np.abs(body.eigenvalues))
-    coupled = om[None, :] * Gy
-    c = coupled / np.maximum(np.hypot(om[:, None] ** 2 - om[None, :] ** 2, coupled), 1e-300)
+    nu = np.hypot(om[:, None] - om[None, :], Gy)
+    T = response_time(om[0] / (2 * np.pi), s)
+    c = np.minimum(Gy / np.maximum(nu, 1e-300), Gy * T / 2)
     np.fill_diagonal(c, 0.0)
     if body.sigma_max is None:
         return float(np.linalg.norm(c @ q_max) / max(np.linalg.norm(q_max), 1e-300))
@@ -185,11 +195,18 @@ def inertia_bound(ref: Model, model: Model, D: np.ndarray) -> np.ndarray:
     return bound
 
 
-def inertia_error(ref: Model, model: Model, q_static: np.ndarray, q_max: np.ndarray) -> float:
-    """``max_k |dI e_k| / I0_kk`` at the static deflection plus every mode at q_max (any signs)."""
+def rigid_error(ref: Model, model: Model, q_static: np.ndarray, q_max: np.ndarray, s: float) -> float:
+    """Relative error of w: ``max_k |dI e_k| / I0_kk`` at the static deflection plus every mode at q_max (any
+    signs), and without the W3 group the internal angular momentum ``|C q'|_k / (I0_kk s)`` of the modes
+    vibrating at q_max (``q'_q = Omega_q q_max,q``)."""
     D = np.vstack([np.diag(q_max), q_static[None, :]])
-    bound = inertia_bound(ref, model, D)
-    return float(np.max(np.linalg.norm(bound, axis=0) / np.diag(ref.I0)))
+    I0 = np.diag(ref.I0)
+    e = float(np.max(np.linalg.norm(inertia_bound(ref, model, D), axis=0) / I0))
+    if ref.on("coupling") and not model.on("coupling"):
+        amplitude = np.abs(q_max) + np.abs(q_static)
+        h = np.einsum("p,kpq,q->k", amplitude, np.abs(ref.W3k), np.sqrt(np.abs(ref.eigenvalues)) * np.abs(q_max))
+        e = max(e, float(np.max(h / (I0 * s))))
+    return e
 
 
 def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axes, speeds, q_max: np.ndarray,
@@ -231,7 +248,7 @@ def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff) -> np.n
                   0.0 if model.on("cor_coupling") or not ref.on("cor_coupling") else mix,
                   static_error(body, static_deflection(model, w), q_ref, q_max, sigma_allow,
                                widening if ref.on("cf1") and not model.on("cf1") else 0.0),
-                  0.0 if stiff else inertia_error(ref, model, q_ref, q_max))
+                  0.0 if stiff else rigid_error(ref, model, q_ref, q_max, s))
     return out
 
 

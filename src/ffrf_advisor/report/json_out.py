@@ -67,7 +67,7 @@ def analysis_json(a: Analysis, source: str) -> dict:
         "body": body_json(b, source),
         "situation": {
             "speed_rad_s": json_number(sit.w_op), "f_sys_hz": json_number(sit.f_sys), "connection": sit.connection,
-            "widening": sit.widening, "thresholds": {**THRESHOLDS, **sit.thresholds},
+            "widening": sit.widening, "thresholds": {k: sit.threshold(k) for k in THRESHOLDS},
             "spin_axis": None if sit.spin_axis is None else list(sit.spin_axis),
             "principal_axis": sit.principal_axis, "tolerance": sit.tolerance, "rules": sit.rules,
             "speed_range_rad_s": None if sit.speed_range is None else list(sit.speed_range),

@@ -23,6 +23,8 @@ import numpy as np
 from ..amplitudes import SMALL_DEFORMATION
 from ..analysis import Analysis, analyze
 from ..response import frequency_change
+from ..predict import level_of
+from ..sim.cost import rhs_cost
 from ..sim.integrate import FIXED, Run, integrate
 from ..sim.model import Model, build_model, initial_state
 from ..sim.output import summary
@@ -127,12 +129,25 @@ def canonical(a: Analysis) -> dict[str, tuple[str, ...]]:
     return {lv: stiffened(a, t) for lv, t in LEVEL_SETS.items()}
 
 
+def verdict_sets(a: Analysis) -> dict[str, tuple[str, ...]]:
+    """The level sets the verdict weighs the advice against, as the advisor may choose them: closed to whole
+    energy groups unless the body is stiffly connected (docs/advice.md), keyed by their level, cheapest first."""
+    stiff = a.options.situation.connection == "stiff"
+    out: dict[str, tuple[str, ...]] = {}
+    for terms in LEVEL_SETS.values():
+        terms = stiffened(a, terms if stiff else lagrangian_superset(terms))
+        out.setdefault(level_of(terms), terms)
+    return out
+
+
 def term_sets(a: Analysis) -> tuple[TermSet, ...]:
-    """The advised set, the canonical levels (IV is the full set), and the advice's smallest Lagrangian superset."""
+    """The advised set, the canonical levels (IV is the full set), the verdict's closed level sets not among
+    them, and the advice's smallest Lagrangian superset."""
     sets = [TermSet("advised", a.advice.terms)] + [TermSet(lv if lv != "IV" else "IV (full)", t)
                                                    for lv, t in canonical(a).items()]
+    sets += [TermSet(f"{lv} (closed)", t) for lv, t in verdict_sets(a).items() if t not in [s.terms for s in sets]]
     superset = lagrangian_superset(a.advice.terms)
-    if superset is not None and superset != a.advice.terms:
+    if superset is not None and superset not in [s.terms for s in sets]:
         sets.append(TermSet("Lagrangian superset", superset))
     return tuple(sets)
 
@@ -265,17 +280,19 @@ def _judge_converged(a: Analysis, results: tuple[SetResult, ...], tolerance: flo
     broken = tuple((r.scene, q, float(r.errors[q])) for r in advised for q in CRITERIA[criterion]
                    if not r.failed and r.errors[q] > tolerance) + tuple(
         (r.scene, "failed: " + r.reason, float("inf")) for r in advised if r.failed)
-    cheapest = next((lv for lv, terms in canonical(a).items()
+    choices = verdict_sets(a)
+    cheapest = next((lv for lv, terms in choices.items()
                      if all(r.meets(tolerance, criterion) for r in results if r.set.terms == terms)), None)
-    level = a.advice.level
+    nf = a.body.nf
     if broken:
         verdict = "unsafe"
         text = (f"the advice FAILED: level {a.advice.level} misses the tolerance {tolerance:g} in "
                 + "; ".join(f"{s}: {q} error {e:.3g}" for s, q, e in broken)
                 + (f"; the cheapest adequate canonical set is {cheapest}" if cheapest else ""))
-    elif cheapest is not None and list(LEVEL_SETS).index(cheapest) < list(LEVEL_SETS).index(level):
+    elif cheapest is not None and rhs_cost(choices[cheapest], nf) < (1 - 1e-9) * rhs_cost(a.advice.terms, nf):
         verdict = "conservative"
-        text = (f"the advice holds; it is conservative: level {cheapest} already meets the tolerance "
+        text = (f"the advice holds; it is conservative: level {cheapest} ({', '.join(choices[cheapest])}) "
+                f"costs less and already meets the tolerance "
                 f"{tolerance:g} in every scene")
     else:
         verdict = "agree"

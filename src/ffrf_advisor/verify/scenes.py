@@ -13,6 +13,7 @@ import numpy as np
 
 from ..analysis import Analysis
 from ..errors import FFRFError
+from ..predict import response_time
 from ..sim.integrate import Loads
 from ..units import TIME
 
@@ -116,7 +117,7 @@ def free_spin(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
     s = opts.speed * TIME[a.body.units.time] if opts.speed is not None else default_speed(a)
     w = s * np.eye(3)[k]
     q0 = worst_signs(a, np.array(a.amplitudes.q_max))
-    T = _seconds(a, opts.duration) or min(max(5 * _first_period(a), 3 * 2 * np.pi / s), 50 * _first_period(a))
+    T = _seconds(a, opts.duration) or response_time(1 / _first_period(a), s)
     return Scene("free-spin", k, T, w, q0, np.zeros(a.body.nf), speed=s,
                  text="free spin, modes at q_max (worst sign pattern)")
 

@@ -136,6 +136,8 @@ def test_without_a_speed_analyze_says_at_rest_and_gate_refuses():
     assert data["situation"]["at_rest"] and "at rest" in data["operating_point"]
     refused = runner.invoke(app, ["gate", path, "--max-level", "I"])
     assert refused.exit_code == 2 and len(refused.output.strip().splitlines()) == 1 and "--speed" in refused.output
+    rest = runner.invoke(app, ["gate", path, "--max-level", "I", "--speed", "0rad/s"], env={"COLUMNS": "200"})
+    assert rest.exit_code == 0 and "operating point: at rest (speed 0)" in rest.output
     rest = runner.invoke(app, ["gate", path, "--max-level", "I", "--speed", "0rad/s", "--json"])
     assert rest.exit_code == 0
     assert "at rest" in json.loads(rest.stdout)["bodies"][0]["analysis"]["operating_point"]

@@ -18,7 +18,7 @@ from .analysis import Options, analyze as run_analysis, check_options
 from .checks import run_checks
 from .errors import FFRFError
 from .gate import check_junit_target, run_gate, write_junit
-from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, parse_speed
+from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, operating_point, parse_speed
 from .io import check_reader_options, format_of, formats, limits, read_body, write_body
 from .io.atomic import atomic_path
 from .report.compare import comparison, comparison_table
@@ -305,6 +305,7 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
     if as_json:
         print(json.dumps({"schema_version": SCHEMA_VERSION, "max_level": max_level, "bodies": results}, indent=1))
     else:
+        out.print(f"operating point: {operating_point(options.situation)}", highlight=False)
         for r in results:
             status = "ERROR" if r["error"] else ("ok" if r["within"] else "EXCEEDS")
             text = r["error"] or f"{r['file']}: level {r['level']} (max {max_level})"

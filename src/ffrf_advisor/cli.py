@@ -20,7 +20,7 @@ from .errors import FFRFError
 from .gate import check_junit_target, run_gate, write_junit
 from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, operating_point, parse_speed
 from .io import check_reader_options, format_of, formats, limits, read_body, write_body
-from .io.atomic import atomic_path
+from .io.atomic import atomic_path, not_an_input, one_run
 from .report.compare import comparison, comparison_table
 from .report.console import analysis_summary, body_summary, progress_bar, simulation_report, verification_report
 from .adequacy import basis_errors
@@ -50,7 +50,8 @@ def handles_errors(fn):
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
         try:
-            return fn(*args, **kwargs)
+            with one_run():  # what the command reads, it never writes over
+                return fn(*args, **kwargs)
         except FFRFError as e:
             message = str(e)
         except (typer.Exit, typer.Abort, KeyboardInterrupt, SystemExit):
@@ -542,6 +543,8 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
         check_output(output, force)
     b = _read(body)
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, threshold=threshold, config=config)
+    if output is not None:
+        not_an_input(output)  # before the integration, not after it
     chosen = run_analysis(b, options).advice.terms if terms.strip() == "advised" else parse_terms(terms)
     model = build_model(b, chosen, damping)
     setup = simulation_setup(b, t_end, step, output_step, integrator)

@@ -12,6 +12,7 @@ import numpy as np
 from .amplitudes import Amplitudes
 from .body import FlexibleBody
 from .errors import FFRFError
+from .io.atomic import note_input
 from .adequacy import basis_errors, modal_widening_stress
 from .response import r_cf2, r_cor
 from .predict import MARGIN, Candidate, candidate_sets, level_of, predictions
@@ -144,7 +145,7 @@ def parse_speed(text: str) -> float:
 def load_config(path: Path | None = None, cwd: Path = Path(".")) -> dict:
     """Options from ``path``, else ``ffrf-advisor.toml`` or ``[tool.ffrf-advisor]`` of pyproject.toml in cwd."""
     if path is None:
-        if (cwd / "ffrf-advisor.toml").is_file():
+        if (cwd / "ffrf-advisor.toml").exists():  # a FIFO or directory there is refused, not ignored
             path = cwd / "ffrf-advisor.toml"
         elif (cwd / "pyproject.toml").is_file():
             data = _toml(cwd / "pyproject.toml")
@@ -154,11 +155,24 @@ def load_config(path: Path | None = None, cwd: Path = Path(".")) -> dict:
     return _validated(_toml(path), path)
 
 
+CONFIG_BYTES = 1 << 20  # a config file is a regular file of at most 1 MiB
+
+
 def _toml(path: Path) -> dict:
+    """The TOML of a config file: a regular file of at most CONFIG_BYTES (a device, FIFO or directory is
+    refused before it is opened for reading)."""
     try:
+        if not Path(path).is_file():
+            kind = "a directory" if Path(path).is_dir() else "not found" if not Path(path).exists() else \
+                "a special file (device, FIFO or socket)"
+            raise FFRFError(f"{path}: config: expected a regular file, got {kind}")
         with open(path, "rb") as f:
-            return tomllib.load(f)
-    except (OSError, tomllib.TOMLDecodeError) as e:
+            data = f.read(CONFIG_BYTES + 1)
+        if len(data) > CONFIG_BYTES:
+            raise FFRFError(f"{path}: config: expected at most 1 MiB, got more")
+        note_input(path)
+        return tomllib.loads(data.decode("utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
         raise FFRFError(f"{path}: config: expected readable TOML, got {e}") from None
 
 

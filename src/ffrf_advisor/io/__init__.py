@@ -9,6 +9,7 @@ import numpy as np
 
 from ..body import FlexibleBody
 from ..errors import BodyFileError, FFRFError
+from .atomic import note_input
 
 
 @dataclass(frozen=True)
@@ -64,6 +65,7 @@ def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> Fle
     damaged file provokes still ends as the project's one-line error.
     """
     f = format_of(path, fmt)
+    note_input(path)
     if not os.path.isfile(path):
         kind = ("a directory" if os.path.isdir(path) else "a special file (device, FIFO or socket)"
                 if os.path.exists(path) else "not found")

@@ -11,10 +11,38 @@ import signal
 import tempfile
 import threading
 from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Iterator
 
 from ..errors import FFRFError
+
+
+_RUN_INPUTS: ContextVar[list[Path] | None] = ContextVar("run_inputs", default=None)
+
+
+@contextmanager
+def one_run() -> Iterator[None]:
+    """Within it, every file read as an input (``note_input``) is refused as a target by ``atomic_path``,
+    whatever ``--force`` says: a command never writes over what it reads."""
+    token = _RUN_INPUTS.set([])
+    try:
+        yield
+    finally:
+        _RUN_INPUTS.reset(token)
+
+
+def note_input(path) -> None:
+    """Record ``path`` as an input of the running command (no effect outside ``one_run``)."""
+    inputs = _RUN_INPUTS.get()
+    if inputs is not None:
+        inputs.append(Path(path))
+
+
+def not_an_input(target) -> None:
+    """FFRFError when ``target`` is a file the running command read (``one_run``)."""
+    refuse_inputs(target, _RUN_INPUTS.get() or (), "is an input of this run; refusing to write over it "
+                                                   "(with or without --force)")
 
 
 def refuse_inputs(target, inputs, message: str) -> None:
@@ -28,6 +56,7 @@ def refuse_inputs(target, inputs, message: str) -> None:
 def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
     """Yield a temporary path; on success it replaces ``target``, on failure it is removed."""
     target = Path(target)
+    not_an_input(target)
     if target.is_symlink() or (target.exists() and not target.is_file()):
         kind = "symbolic link" if target.is_symlink() else "directory" if target.is_dir() else "special file"
         raise FFRFError(f"{target}: expected a regular file to write, got a {kind}")

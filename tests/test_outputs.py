@@ -1,0 +1,75 @@
+"""Nothing the user owns is lost (issue 23): no command writes over a file it reads, whatever --force says;
+config files are regular files of at most 1 MiB."""
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from ffrf_advisor.cli import app
+
+SAMPLE = Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5"
+runner = CliRunner()
+
+
+@pytest.fixture
+def body(tmp_path) -> Path:
+    path = tmp_path / "beam.ffrf.h5"
+    shutil.copy(SAMPLE, path)
+    return path
+
+
+def _one_line_refusal(result, path) -> None:
+    assert result.exit_code == 2, result.output
+    assert len(result.output.strip().splitlines()) == 1 and "is an input of this run" in result.output
+    assert str(path) in result.output
+
+
+@pytest.mark.parametrize("command", [
+    ["simulate", "{body}", "--t-end", "1e-4", "-o", "{target}", "--force"],
+    ["convert", "{body}", "{target}", "--force"],
+    ["augment", "{body}", "-o", "{target}", "--force"],
+])
+def test_no_command_writes_over_its_input_even_with_force(body, tmp_path, command):
+    """simulate -o BODY --force replaced the body with a trajectory (a .ffrf.h5 ends in .h5)."""
+    before = body.read_bytes()
+    link = tmp_path / "same.ffrf.h5"
+    os.link(body, link)  # the same file under another name counts too
+    for target in (body, link):
+        args = [a.format(body=body, target=target) for a in command]
+        _one_line_refusal(runner.invoke(app, args), target)
+    assert body.read_bytes() == before
+
+
+def test_a_config_file_that_is_an_input_is_not_written_either(body, tmp_path):
+    cfg = tmp_path / "run.h5"
+    cfg.write_text("speed = '100rad/s'\n")
+    result = runner.invoke(app, ["simulate", str(body), "--t-end", "1e-4", "--config", str(cfg), "-o", str(cfg),
+                                 "--force"])
+    _one_line_refusal(result, cfg)
+    assert cfg.read_text() == "speed = '100rad/s'\n"
+
+
+@pytest.mark.parametrize("kind", ["fifo", "directory", "device", "big"])
+def test_config_files_are_regular_files_of_at_most_one_mebibyte(tmp_path, kind, monkeypatch):
+    """--config /dev/zero grew without bound, a FIFO never returned, a FIFO or directory in the working
+    directory was silently ignored."""
+    path = tmp_path / "ffrf-advisor.toml"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "directory":
+        path.mkdir()
+    elif kind == "device":
+        path = Path("/dev/zero")
+    else:
+        path.write_text("# " + "x" * (1 << 20) + "\n")
+    for args in (["--config", str(path)], []):
+        if not args and kind == "device":
+            continue
+        monkeypatch.chdir(tmp_path)
+        result = runner.invoke(app, ["analyze", str(SAMPLE), *args])
+        assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+        assert "config" in result.output and ("regular file" in result.output or "1 MiB" in result.output)

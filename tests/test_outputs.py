@@ -73,3 +73,33 @@ def test_config_files_are_regular_files_of_at_most_one_mebibyte(tmp_path, kind, 
         result = runner.invoke(app, ["analyze", str(SAMPLE), *args])
         assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
         assert "config" in result.output and ("regular file" in result.output or "1 MiB" in result.output)
+
+
+@pytest.mark.parametrize("option", [["--rtol", "nan"], ["--rtol", "inf"], ["--rtol", "1e999"], ["--rtol", "-1"],
+                                    ["--atol", "nan"], ["--atol", "0"], ["--atol", "-1"], ["--t-end", "1e308"],
+                                    ["--damping", "1e308"], ["--damping", "nan"]])
+def test_simulate_refuses_parameters_that_make_it_unbounded(option):
+    """Each of these ran until killed or raised 'unexpected ValueError' (issue 23, item 6)."""
+    args = ["simulate", str(SAMPLE), "--t-end", "1e-3", *option]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert option[0] in result.output
+
+
+@pytest.mark.parametrize("integrator", ["radau", "bdf", "lsoda", "rk45", "dop853"])
+def test_every_documented_adaptive_integrator_runs(integrator):
+    """radau was passed to scipy as RADAU and always failed (issue 23, item 12)."""
+    result = runner.invoke(app, ["simulate", str(SAMPLE), "--t-end", "2e-4", "--integrator", integrator,
+                                 "--q0", "qmax", "--json"])
+    assert result.exit_code == 0, result.output
+
+
+@pytest.mark.parametrize("line", ["sigma_allow = true", "n_ratio = true", "q_cap = false", "tolerance = true",
+                                  "f_sys = true"])
+def test_config_booleans_are_not_numbers(tmp_path, line):
+    """sigma_allow = true was taken as 1 N/mm^2; n_ratio = true ended in 'unexpected TypeError' (issue 23)."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(line + "\n")
+    result = runner.invoke(app, ["analyze", str(SAMPLE), "--config", str(cfg)])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert "expected" in result.output and "unexpected" not in result.output

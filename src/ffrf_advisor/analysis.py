@@ -48,7 +48,8 @@ def check_options(options: Options) -> None:
         _number("--speed", sit.w_op, False)
     if sit.f_sys is not None:
         _number("--f-sys", sit.f_sys, True)
-    if options.n_ratio is not None and (not isinstance(options.n_ratio, int) or options.n_ratio < 1):
+    n = options.n_ratio
+    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
         raise FFRFError(f"--n-ratio {options.n_ratio!r}: expected a whole number >= 1")
     _number("--tolerance", sit.tolerance, True)
     if sit.rules not in RULE_SETS:

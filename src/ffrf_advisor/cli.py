@@ -27,10 +27,10 @@ from .adequacy import basis_errors
 from .report.json_out import SCHEMA_VERSION, analysis_json, info_json
 from .schemas import COMMANDS as SCHEMA_COMMANDS, schema_text
 from .samples import SAMPLES, sample as make_sample
-from .sim.integrate import INTEGRATORS, integrate
+from .sim.integrate import FIXED, INTEGRATORS, integrate
 from .sim.model import build_model, initial_state
 from .sim.output import check_output, summary, write_trajectory
-from .sim.setup import q_max_of, simulation_setup
+from .sim.setup import check_tolerances, q_max_of, simulation_setup
 from .verify.checks import SCENES, check_verify_options
 from .solver_settings import SOLVERS, adams_settings
 from .terms import parse_terms
@@ -548,6 +548,8 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     chosen = run_analysis(b, options).advice.terms if terms.strip() == "advised" else parse_terms(terms)
     model = build_model(b, chosen, damping)
     setup = simulation_setup(b, t_end, step, output_step, integrator)
+    if integrator not in FIXED:
+        check_tolerances(rtol, atol)
     start = q_max_of(b, options.amplitudes) if q0 is not None and q0.strip() == "qmax" else _numbers("--q0", q0)
     y0 = initial_state(model, np.array(_numbers("--omega0", omega0)) * setup.per_second,
                        () if start is None else start, _numbers("--qd0", qd0) or ())

@@ -21,6 +21,7 @@ from .model import Model
 
 FIXED = ("rk4", "rk4-lie", "midpoint")
 ADAPTIVE = ("dop853", "rk45", "radau", "bdf", "lsoda")
+SCIPY_NAMES = {"dop853": "DOP853", "rk45": "RK45", "radau": "Radau", "bdf": "BDF", "lsoda": "LSODA"}
 INTEGRATORS = FIXED + ADAPTIVE
 REASONS = {1: "state not finite or overflowing", 2: "quaternion norm lost"}
 NEWTON_TOL = 1e-12   # relative size of the last Newton correction of the implicit midpoint rule
@@ -192,7 +193,7 @@ def _adaptive(model, y0, t_end, method, rtol, atol, output_step, loads) -> Run:
     f = Rhs(model, loads)
     start = time.perf_counter()
     with np.errstate(all="ignore"):
-        sol = solve_ivp(f, (0.0, t_end), y0, method="LSODA" if method == "lsoda" else method.upper(),
+        sol = solve_ivp(f, (0.0, t_end), y0, method=SCIPY_NAMES[method],
                         dense_output=True, rtol=rtol, atol=atol)
     wall = time.perf_counter() - start
     t_last = float(sol.t[-1])

@@ -22,6 +22,7 @@ from ..errors import FFRFError
 from ..terms import IDS, is_lagrangian, needed_invariants, ordered
 
 N_ROT = 7  # quaternion (4) and angular velocity (3) lead the state vector
+MAX_DAMPING = 10.0  # modal damping ratios above make the modes stiff beyond any integrator's budget
 
 
 @dataclass(frozen=True)
@@ -70,8 +71,9 @@ def build_model(body: FlexibleBody, terms, damping=0.0, G: np.ndarray | None = N
         raise FFRFError(f"{body.name}: term set needs {', '.join(missing)}, which the body does not carry"
                         + (" (geometric stiffness: computed from FE data, theory section 9)" if "G" in missing else ""))
     zeta = np.broadcast_to(np.asarray(damping, float), (nf,)) if np.ndim(damping) == 0 else np.asarray(damping, float)
-    if zeta.shape != (nf,) or not np.all(np.isfinite(zeta)) or np.any(zeta < 0):
-        raise FFRFError(f"--damping: expected one or {nf} non-negative ratios, got {np.ravel(damping).tolist()}")
+    if zeta.shape != (nf,) or not np.all(np.isfinite(zeta)) or np.any(zeta < 0) or np.any(zeta > MAX_DAMPING):
+        raise FFRFError(f"--damping: expected one or {nf} ratios between 0 and {MAX_DAMPING:g}, got "
+                        f"{np.ravel(damping).tolist()[:6]}")
     need_w2 = any(t in terms for t in ("inertia_quad", "cf2", "cor_quad"))
     need_w3 = any(t in terms for t in ("coupling", "cor_coupling"))
     Sbar = np.array(ints.Sbar) if need_w2 else np.zeros((3, 3, nf, nf))

@@ -30,6 +30,17 @@ def _positive(name: str, value: float | None, required: bool = False) -> None:
         raise FFRFError(f"{name}: expected a positive number of seconds, got {value}")
 
 
+MAX_PERIODS = 1e7  # work budget of one simulation: periods of its highest mode (steps follow from them)
+
+
+def check_tolerances(rtol: float, atol: float) -> None:
+    """An adaptive run's tolerances: rtol in (0, 1), atol finite and positive (else it never ends)."""
+    if not (math.isfinite(rtol) and 0 < rtol < 1):
+        raise FFRFError(f"--rtol {rtol}: expected a number between 0 and 1")
+    if not (math.isfinite(atol) and atol > 0):
+        raise FFRFError(f"--atol {atol}: expected a finite positive number")
+
+
 def simulation_setup(body: FlexibleBody, t_end: float, step: float | None, output_step: float | None,
                      integrator: str) -> Setup:
     """Validated times (seconds in, body units out); fixed-step methods need a step."""
@@ -41,6 +52,11 @@ def simulation_setup(body: FlexibleBody, t_end: float, step: float | None, outpu
     seconds = float(TIME[body.units.time])  # seconds per body time unit
     if step is not None and t_end / step > 1e9:
         raise FFRFError(f"--step {step}: expected at most 1e9 steps to --t-end {t_end}")
+    f_max = float(np.max(body.frequencies_hz)) / seconds if body.nf else 0.0  # Hz
+    if t_end * f_max > MAX_PERIODS:
+        raise FFRFError(f"--t-end {t_end}: expected at most {MAX_PERIODS:.0e} periods of the highest mode "
+                        f"(mode {body.nf}, {f_max:.4g} Hz), i.e. at most {MAX_PERIODS / f_max:.4g} s: every "
+                        "integrator resolves each period")
     to_body = (lambda x: None if x is None else x / seconds)  # noqa: E731
     return Setup(seconds, to_body(t_end), to_body(step), to_body(output_step))
 

@@ -103,3 +103,21 @@ def test_config_booleans_are_not_numbers(tmp_path, line):
     result = runner.invoke(app, ["analyze", str(SAMPLE), "--config", str(cfg)])
     assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
     assert "expected" in result.output and "unexpected" not in result.output
+
+
+def test_a_long_or_hostile_name_is_cut_and_defused_before_any_layout(tmp_path):
+    """A 200,000-character name made convert take 220 s (rich wrapping one unbroken word); a newline or an ANSI
+    escape in a file name split or recoloured gate's line (issue 23, items 10 and 14)."""
+    import h5py
+    body = tmp_path / "long.ffrf.h5"
+    shutil.copy(SAMPLE, body)
+    with h5py.File(body, "r+") as f:
+        f.attrs["name"] = "x" * 200_000
+    result = runner.invoke(app, ["convert", str(body), str(tmp_path / "out.ffrf.h5")])
+    assert result.exit_code == 0
+    assert "(+199800 characters)" in result.output and len(result.output) < 2000
+    odd = tmp_path / "a\nb\x1b[31m.ffrf.h5"
+    shutil.copy(SAMPLE, odd)
+    gate = runner.invoke(app, ["gate", str(odd), "--max-level", "IV", "--speed", "0rad/s"], env={"COLUMNS": "300"})
+    assert gate.exit_code == 0 and "\x1b" not in gate.output
+    assert len([line for line in gate.output.splitlines() if line.startswith("ok")]) == 1

@@ -22,7 +22,8 @@ from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, operating_po
 from .io import check_reader_options, format_of, formats, limits, read_body, write_body
 from .io.atomic import atomic_path, not_an_input, one_run
 from .report.compare import comparison, comparison_table
-from .report.console import analysis_summary, body_summary, progress_bar, simulation_report, verification_report
+from .report.console import (analysis_summary, body_summary, progress_bar, shown, simulation_report,
+                             verification_report)
 from .adequacy import basis_errors
 from .report.json_out import SCHEMA_VERSION, analysis_json, info_json
 from .schemas import COMMANDS as SCHEMA_COMMANDS, schema_text
@@ -312,9 +313,9 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
             text = r["error"] or f"{r['file']}: level {r['level']} (max {max_level})"
             if r["error"] and not text.startswith(r["file"]):
                 text = f"{r['file']}: {text}"  # errors that name no file get it once
-            out.print(f"{status:8s} {text}", highlight=False)
+            out.print(f"{status:8s} {shown(text, 2000)}", highlight=False)
             for w in r["warnings"]:
-                out.print(f"{'':8s} warning: {w}", highlight=False)
+                out.print(f"{'':8s} warning: {shown(w, 2000)}", highlight=False)
     if any(r["error"] for r in results):
         raise typer.Exit(EXIT_BAD_INPUT)
     if not all(r["within"] for r in results):
@@ -340,7 +341,7 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed:
         out.print(comparison_table(data))
         for body in data["bodies"]:
             for w in body["warnings"]:
-                out.print(f"{body['name']}: warning: {w}", highlight=False)
+                out.print(f"{shown(body['name'])}: warning: {shown(w, 2000)}", highlight=False)
 
 
 @app.command()
@@ -414,7 +415,7 @@ def sample(name: str = typer.Argument(..., help=f"One of: {', '.join(SAMPLES)}."
     body = make_sample(name, refine, report=lambda step: err.print(
         f"{name}: {step} ({time.perf_counter() - start:.0f} s so far)", highlight=False))
     write_body(body, output, overwrite=force)
-    out.print(f"wrote {output}: {body.name}, {body.nf} modes, f1 = {body.frequencies_hz[0]:.4g} Hz, "
+    out.print(f"wrote {shown(output)}: {shown(body.name)}, {body.nf} modes, f1 = {body.frequencies_hz[0]:.4g} Hz, "
               f"{body.fe.mesh.n_nodes} nodes")
 
 
@@ -439,7 +440,7 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
         raise FFRFError(f"{target}: format {fmt.name} can be read but not written")
     body = _read(source, eigenvalues, density, from_format, young=young, poisson=poisson)
     write_body(body, target, fmt.name, overwrite=force)
-    out.print(f"wrote {target} ({fmt.name}): {body.name}, {body.nf} modes"
+    out.print(f"wrote {shown(target)} ({fmt.name}): {shown(body.name)}, {body.nf} modes"
               + ("" if body.fe is not None else ", invariants only"))
 
 
@@ -460,7 +461,7 @@ def augment(body: Path = typer.Argument(..., help="Body file with FE data and ma
     new = add_residual_vectors(b, chosen, str(body))
     write_body(new, output, "ffrf-h5", overwrite=force)
     errors = basis_errors(new)
-    out.print(f"wrote {output}: {new.name}, {b.nf} + {len(chosen)} -> {new.nf} modes; energy-norm error of "
+    out.print(f"wrote {shown(output)}: {shown(new.name)}, {b.nf} + {len(chosen)} -> {new.nf} modes; energy-norm error of "
               "the static centrifugal deflection about axes 1, 2, 3: " + ", ".join(f"{e:.2g}" for e in errors),
               highlight=False)
 

@@ -77,7 +77,7 @@ def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> Fle
     except UNFORESEEN as e:
         raise BodyFileError(path, "file", f"a readable {f.name} file",
                             f"{type(e).__name__}: {str(e)[:160]}") from None
-    return flexible_modes_in_order(in_range(body, path), path)
+    return flexible_modes_in_order(physically_possible(in_range(body, path), path), path)
 
 
 LARGEST = 1e150  # |value| above which products of two numbers (inertia, energies) overflow
@@ -100,6 +100,23 @@ def in_range(body: FlexibleBody, path) -> FlexibleBody:
     if not np.all(np.abs(body.I0) < LARGEST):
         raise BodyFileError(path, "invariants I", "an inertia tensor I0 about the CoM that is finite",
                             "overflow (from the first moment and I)")
+    return body
+
+
+TRIANGLE = 1e-6  # of trace I0: a thin plate has I3 = I1 + I2 up to its file's rounding
+
+
+def physically_possible(body: FlexibleBody, path) -> FlexibleBody:
+    """A body that can exist, whatever a file cached (theory 2-4): positive mass, and I0 about the CoM positive
+    definite with each principal moment at most the sum of the other two (so the rigid-body mass matrix is
+    positive definite); an indefinite nodal mass shows in them."""
+    if not body.mass > 0:
+        raise BodyFileError(path, "invariants mass", "a positive mass", f"{body.mass:.6g}")
+    moments = np.linalg.eigvalsh(0.5 * (body.I0 + body.I0.T))
+    if moments[0] <= 0 or moments[2] > moments[0] + moments[1] + TRIANGLE * moments.sum():
+        raise BodyFileError(path, "invariants I", "an inertia tensor I0 about the CoM that is positive definite "
+                            "with each principal moment at most the sum of the other two",
+                            "principal moments " + ", ".join(f"{x:.6g}" for x in moments))
     return body
 
 

@@ -257,6 +257,22 @@ def _cached_integrals(r: _Reader, nf: int) -> ShapeIntegrals:
     )
 
 
+CACHE_TOLERANCE = 1e-6  # relative: a cache written by this tool agrees to round-off, another tool's to its digits
+
+
+def _cache_agrees(r: _Reader, cached: ShapeIntegrals, nodal: ShapeIntegrals) -> None:
+    """The cached invariants equal the nodal sums of the file's mass and modes (theory 3): otherwise commands that
+    read the cache (info) and those that read the nodal data (analyze) would see two bodies."""
+    for name in ("mass", "first_moment", "I", "Ibar"):
+        a, b = np.asarray(getattr(cached, name), float), np.asarray(getattr(nodal, name), float)
+        size = (nodal.mass * np.abs(nodal.I).max()) ** 0.5  # mass x length: the first moment's scale at the CoM
+        scale = max(np.abs(b).max(), size if name == "first_moment" else 0.0)
+        if np.abs(a - b).max() > CACHE_TOLERANCE * max(scale, 1e-300):
+            r.fail(f"invariants/{name}" if name != "mass" else "invariants@mass",
+                   "the cached invariants to equal the nodal sums of mass/Ms and modes/Phi (theory 3)",
+                   f"a relative difference of {np.abs(a - b).max() / max(scale, 1e-300):.2g}")
+
+
 def _phi(r: _Reader, n: int, nf: int) -> h5py.Dataset:
     ds = r.node("modes/Phi")
     if ds.shape != (n, 3, nf):
@@ -297,6 +313,8 @@ def _read_open(r: _Reader, path, load_fe: bool) -> FlexibleBody:
             r.fail("modes/Phi", "nodal modes (or a cached invariants group)", "missing")
         fe = _read_fe(r, nf, material)
         integrals = fe.integrals()
+        if "invariants" in r.f:
+            _cache_agrees(r, _cached_integrals(r, nf), integrals)
     else:
         integrals = _cached_integrals(r, nf)
     return FlexibleBody(name=name, integrals=integrals, eigenvalues=eigenvalues, units=units,

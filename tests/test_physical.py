@@ -1,0 +1,70 @@
+"""Bodies must be physically possible, cached or not (issue 23, item 3): positive mass, I0 positive definite
+with the triangle inequality of its principal moments, a cache that agrees with the nodal data."""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from ffrf_advisor.cli import app
+from ffrf_advisor.io import read_body, write_body
+
+SAMPLE = Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5"
+runner = CliRunner()
+
+
+def _one_line(result, field: str) -> None:
+    """Exit 2 and one line naming the field (gate: one ERROR line per body below its operating point)."""
+    assert result.exit_code == 2, result.output
+    text = " ".join(result.output.split())
+    assert field in text and "Traceback" not in text
+    if not result.output.startswith("operating point"):
+        assert len(result.output.strip().splitlines()) == 1, result.output
+
+
+@pytest.fixture
+def beam(tmp_path) -> Path:
+    path = tmp_path / "beam.ffrf.h5"
+    shutil.copy(SAMPLE, path)
+    return path
+
+
+def test_an_indefinite_cached_inertia_is_refused_by_every_command(beam):
+    """A cached invariants/I of diag(1, -5, 1) was what info printed while analyze recomputed from the nodes."""
+    with h5py.File(beam, "r+") as f:
+        I = f["invariants/I"][...]
+        f["invariants/I"][...] = np.diag([1.0, -5.0, 1.0]) * np.abs(I).max()
+    for command in (["info"], ["analyze"], ["gate", "--max-level", "IV", "--speed", "0rad/s"], ["compare"]):
+        _one_line(runner.invoke(app, [command[0], str(beam), *command[1:]]), "invariants")
+
+
+def test_a_cache_that_disagrees_with_the_nodal_data_is_an_error(beam):
+    with h5py.File(beam, "r+") as f:
+        f["invariants/I"][...] *= 1.01  # still a possible body, but not this mesh's
+    _one_line(runner.invoke(app, ["analyze", str(beam)]), "invariants/I")
+    assert runner.invoke(app, ["info", str(beam)]).exit_code == 0  # the cache alone is a possible body
+
+
+@pytest.mark.parametrize("I7", [[1.0, -5.0, 1.0], [1.0, 1.0, 3.0], [0.0, 1.0, 1.0]])
+def test_an_invariants_file_with_an_impossible_I7_is_refused(tmp_path, I7):
+    """I7 = diag(1, -5, 1) passed gate --max-level I; (1, 1, 3) breaks the triangle inequality, (0, 1, 1) is a
+    line of point masses (no body)."""
+    body = read_body(SAMPLE)
+    path = tmp_path / "b.ffinv.json"
+    write_body(body, path)
+    doc = json.loads(path.read_text())
+    scale = np.trace(np.asarray(doc["I7"], float)) / 3
+    doc["I7"] = (np.diag(I7) * scale).tolist()
+    doc["I2"] = [0.0, 0.0, 0.0]  # about the CoM: I0 = I7
+    path.write_text(json.dumps(doc))
+    _one_line(runner.invoke(app, ["gate", str(path), "--max-level", "I", "--speed", "0rad/s"]), "I")
+
+
+def test_a_thin_plate_on_the_triangle_inequality_is_possible():
+    """I3 = I1 + I2 holds for a plate to its rounding: the tolerance lets it through."""
+    assert runner.invoke(app, ["info", str(SAMPLE.parent / "plate.ffrf.h5")]).exit_code == 0

@@ -84,11 +84,12 @@ def deciding(row: dict) -> str:
     w = row["worst_error"]
     if row["verdict"] == "unsafe":
         return "; ".join(f"{s} {q} {_fmt(e)}" for s, q, e in row["broken"][:2])
+    unjudged = "; ".join(f"no verdict in {s}" for s, _ in row.get("unjudged", []))
     if row["verdict"] == "no verdict" or row["cheapest"] is None:
-        return "; ".join(f"no verdict in {s}" for s, _ in row.get("unjudged", [])) or "-"
+        return unjudged or "-"
     cheaper = [lv for lv in LEVEL_ORDER[:LEVEL_ORDER.index(row["cheapest"])] if _label(w, lv)]
-    text = f"advised {_fmt(w['advised'])}"
-    return text + (f", {cheaper[-1]} {_fmt(w[_label(w, cheaper[-1])])}" if cheaper else "")
+    text = f"advised {_fmt(w['advised'])}" + (f", {cheaper[-1]} {_fmt(w[_label(w, cheaper[-1])])}" if cheaper else "")
+    return text + (f" (over every scene); {unjudged}" if unjudged else "")
 
 
 def _label(worst: dict, level: str) -> str | None:
@@ -106,7 +107,8 @@ def why_conservative(row: dict) -> str:
     if match is None:
         return f"level {level} meets the tolerance (worst {_fmt(simulated)}); it was no candidate of the advice"
     kind = max(match["errors"], key=match["errors"].get)
-    return (f"level {level} meets the tolerance in the scenes (worst {_fmt(simulated)}), but its predicted {kind} "
+    where = "in the scenes with a verdict" if row.get("unjudged") else "in the scenes"
+    return (f"level {level} meets the tolerance {where} (worst {_fmt(simulated)} over all), but its predicted {kind} "
             f"error {_fmt(match['errors'][kind])} exceeds {TOLERANCE / MARGIN:g} about principal axis "
             f"{match['axes'][kind] + 1}")
 
@@ -162,7 +164,12 @@ def main() -> None:
     parser.add_argument("--cache", type=Path, default=ROOT / "build" / "zoo")
     parser.add_argument("--families", nargs="*", default=None, help="only these zoo families")
     parser.add_argument("--no-samples", action="store_true", help="the zoo bodies only")
+    parser.add_argument("--from-json", action="store_true", help="remake docs/verification.md from the rows of "
+                                                                   "docs/verification.json without running them")
     args = parser.parse_args()
+    if args.from_json:
+        data = json.loads((ROOT / "docs" / "verification.json").read_text())
+        return write_docs(data["rows"], data["wall_s"], data["jobs"])
     start = time.perf_counter()
     bodies = [b for b in zoo_bodies(args.cache) if args.families is None or b[0] in args.families]
     if not args.no_samples:
@@ -171,11 +178,17 @@ def main() -> None:
     work = tasks(bodies)
     rows = [dict(r, family=family_of[t.body]) for r, t in zip(run_sweep(work, args.jobs, args.scheduler, row_of), work)]
     wall = time.perf_counter() - start
-    (ROOT / "docs" / "verification.json").write_text(json.dumps({"rows": rows}, indent=1) + "\n")
+    (ROOT / "docs" / "verification.json").write_text(json.dumps({"rows": rows, "wall_s": wall, "jobs": args.jobs},
+                                                                indent=1) + "\n")
+    write_docs(rows, wall, args.jobs)
+
+
+def write_docs(rows: list[dict], wall: float, jobs: int) -> None:
+    """The generated part of docs/verification.md, between its markers; printed too."""
     doc = ROOT / "docs" / "verification.md"
-    block = f"<!-- table:start -->\n{document(rows, wall, args.jobs)}\n<!-- table:end -->"
+    block = f"<!-- table:start -->\n{document(rows, wall, jobs)}\n<!-- table:end -->"
     doc.write_text(re.sub(r"<!-- table:start -->.*<!-- table:end -->", lambda _: block, doc.read_text(), flags=re.S))
-    print(document(rows, wall, args.jobs))
+    print(document(rows, wall, jobs))
 
 
 if __name__ == "__main__":

@@ -125,6 +125,9 @@ class Advice:
         return lagrangian_superset(self.terms)
 
 
+BASELINE = Rule("I", "baseline", None, None, True, ("gyro0",), "gyroscopic term with I0 is always kept")
+
+
 # ------------------------------------------------------------------ inputs
 _SPEED = re.compile(r"^\s*([-+0-9.eE]+)\s*(rad/s|rpm|hz|)\s*$", re.IGNORECASE)
 
@@ -354,7 +357,7 @@ def _predicted(body: FlexibleBody, amp: Amplitudes, sit: Situation, stiff: bool)
     rank = lambda c: (LEVELS.index(level_of(c.terms)), round(c.cost, 9), len(c.terms))  # noqa: E731
     chosen = min((c for c in found if c.meets(sit.tolerance)), key=rank)
     thr = sit.tolerance / MARGIN
-    rules = [Rule("I", "baseline", None, None, True, ("gyro0",), "gyroscopic term with I0 is always kept")]
+    rules = [BASELINE]
     for c in sorted(found, key=rank):
         if rank(c) >= rank(chosen):
             break
@@ -375,7 +378,7 @@ def _predicted(body: FlexibleBody, amp: Amplitudes, sit: Situation, stiff: bool)
 
 def _paper_rules(body, amp: Amplitudes, sig: Significance, sit: Situation, w_op, stiff: bool):
     """(level, terms, rules, warnings) by the paper's rules with its thresholds (theory section 8)."""
-    rules = [Rule("I", "baseline", None, None, True, ("gyro0",), "gyroscopic term with I0 is always kept")]
+    rules = [BASELINE]
     rules.append(_rule_II(body, amp, sit, w_op))
     measures = {"dI_L": (sig.dI_L, "inertia_lin"), "dI_Q": (sig.dI_Q, "inertia_quad"),
                 "dI_fT": (sig.dI_fT, "coupling"), "dI_Tf": (sig.dI_Tf, "coupling")}

@@ -10,6 +10,7 @@ from .body import FlexibleBody
 from .checks import Check, check_warnings, run_checks
 from .errors import FFRFError
 from .guidelines import RULE_SETS, Advice, Situation, advise, check_thresholds
+from .predict import EXCITATIONS
 from .significance import Significance, significance
 
 
@@ -54,6 +55,8 @@ def check_options(options: Options) -> None:
     _number("--tolerance", sit.tolerance, True)
     if sit.rules not in RULE_SETS:
         raise FFRFError(f"--rules {sit.rules!r}: expected one of {', '.join(RULE_SETS)}")
+    if sit.excitation not in EXCITATIONS:
+        raise FFRFError(f"--excitation {sit.excitation!r}: expected one of {', '.join(EXCITATIONS)}")
     check_thresholds(sit.thresholds, "--threshold")
 
 

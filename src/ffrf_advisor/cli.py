@@ -122,6 +122,9 @@ Tolerance = Annotated[Optional[float], typer.Option(
 Rules = Annotated[Optional[str], typer.Option(
     "--rules", help="predicted (default: from predicted response errors), thresholds (theory 8's rules with "
                     "--threshold) or paper (the paper's rules, 5 % and 1 %).")]
+Excitation = Annotated[Optional[str], typer.Option(
+    "--excitation", help="vibration (default: the modes may vibrate at q_max) or inertial (only the body's own "
+                         "rigid motion drives them: spin-up, torque pulses; docs/advice.md).")]
 SpeedRange = Annotated[Optional[str], typer.Option(
     "--speed-range", help="Advise for a range of speeds: LOW..HIGH, e.g. 0..3000rpm (instead of --speed).")]
 
@@ -231,7 +234,7 @@ def _is_number(text) -> bool:
 
 def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_allow=None, q_cap=None,
                   deflection_cap=None, q_max=None, n_ratio=None, threshold=None, config=None,
-                  spin_axis=None, tolerance=None, rules=None, speed_range=None) -> Options:
+                  spin_axis=None, tolerance=None, rules=None, speed_range=None, excitation=None) -> Options:
     """Options from defaults < config file < command line."""
     cfg = load_config(config)
     pick = lambda cli, key, default=None: cli if cli is not None else cfg.get(key, default)  # noqa: E731
@@ -252,7 +255,8 @@ def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_
                           thresholds=_thresholds(threshold, cfg.get("thresholds", {})),
                           spin_axis=vector, principal_axis=principal,
                           tolerance=pick(tolerance, "tolerance", Situation.tolerance),
-                          rules=pick(rules, "rules", Situation.rules), speed_range=w_range)
+                          rules=pick(rules, "rules", Situation.rules), speed_range=w_range,
+                          excitation=pick(excitation, "excitation", Situation.excitation))
     options = Options(amp, situation, pick(n_ratio, "n_ratio"))
     check_options(options)
     return options
@@ -265,10 +269,12 @@ def analyze(body: Path = typer.Argument(..., help="Body file."), speed: Speed = 
             q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None, n_ratio: NRatio = None,
             threshold: Threshold = None, config: Config = None, as_json: AsJson = False,
             eigenvalues: Eigenvalues = None, density: Density = None, spin_axis: SpinAxis = None,
-            tolerance: Tolerance = None, rules: Rules = None, speed_range: SpeedRange = None):
+            tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
+            speed_range: SpeedRange = None):
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range)
+                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
+                            excitation)
     result = run_analysis(_read(body, eigenvalues, density), options)
     if as_json:
         print(json.dumps(analysis_json(result, str(body)), indent=1))
@@ -283,7 +289,8 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
          speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
          sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
          n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
-         tolerance: Tolerance = None, rules: Rules = None, speed_range: SpeedRange = None,
+         tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
+         speed_range: SpeedRange = None,
          eigenvalues: Eigenvalues = None, density: Density = None,
          junit: Optional[Path] = typer.Option(None, "--junit", help="Write JUnit XML here."),
          force: bool = typer.Option(False, "--force", help="Let --junit replace a file that is not a JUnit report."),
@@ -296,7 +303,8 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
     if junit is not None:
         check_junit_target(junit, bodies, force)
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range)
+                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
+                            excitation)
     if options.situation.w_op is None:
         raise FFRFError("gate: --speed: expected the operating speed (0 for a body at rest), --speed-range or "
                         "speed in the config; without one only the rules that hold at rest would be evaluated")
@@ -328,11 +336,13 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed:
             f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
             sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
             n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
-         tolerance: Tolerance = None, rules: Rules = None, speed_range: SpeedRange = None,
+            tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
+            speed_range: SpeedRange = None,
             eigenvalues: Eigenvalues = None, density: Density = None, as_json: CompareJson = False):
     """Paper-style comparison of bodies: frequencies, stress, q_max, inertia, coupling and norm ratios."""
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range)
+                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
+                            excitation)
     analyses = [run_analysis(_read(b, eigenvalues, density), options) for b in bodies]
     data = comparison(analyses, [str(b) for b in bodies])
     if as_json:
@@ -357,7 +367,8 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
            speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
            sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
            n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
-         tolerance: Tolerance = None, rules: Rules = None, speed_range: SpeedRange = None,
+           tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
+           speed_range: SpeedRange = None,
            eigenvalues: Eigenvalues = None, density: Density = None):
     """HTML or PDF report: verdict, evidence, the paper's figures and tables, pictures, Campbell, verification."""
     from .report import document
@@ -368,7 +379,8 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
     if verification and len(verification) != len(bodies):
         raise FFRFError(f"--verification: expected one file per body ({len(bodies)}), got {len(verification)}")
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range)
+                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
+                            excitation)
     analyses = [run_analysis(_read(b, eigenvalues, density), options) for b in bodies]
     with tempfile.TemporaryDirectory(prefix="ffrf-report-") as scratch:  # figures of --verify, until written
         studies = [_verification(a, b, Path(scratch) / str(i) if verify else None,
@@ -491,12 +503,14 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
              speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
              threshold: Threshold = None, config: Config = None, as_json: SettingsJson = False,
              eigenvalues: Eigenvalues = None, density: Density = None, spin_axis: SpinAxis = None,
-             tolerance: Tolerance = None, rules: Rules = None, speed_range: SpeedRange = None):
+             tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
+             speed_range: SpeedRange = None):
     """Solver settings for the advised term set (Adams: coupling option and INVARIANTS= pattern)."""
     if solver not in SOLVERS:
         raise FFRFError(f"--solver {solver!r}: expected one of {', '.join(SOLVERS)}")
     options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config,
-                            spin_axis=spin_axis, tolerance=tolerance, rules=rules, speed_range=speed_range)
+                            spin_axis=spin_axis, tolerance=tolerance, rules=rules, speed_range=speed_range,
+                            excitation=excitation)
     result = run_analysis(_read(body, eigenvalues, density), options)
     data = {"schema_version": 1, "level": result.advice.level, "terms": list(result.advice.terms),
             **adams_settings(result.advice.terms),
@@ -585,7 +599,8 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    as_json: VerifyJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
                    widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
                    threshold: Threshold = None, config: Config = None, rules: Rules = None,
-                   spin_axis: SpinAxis = None, deflection_cap: DeflCap = None, q_max: QMax = None):
+                   excitation: Excitation = None, spin_axis: SpinAxis = None, deflection_cap: DeflCap = None,
+                   q_max: QMax = None):
     """Verify the advice by simulation: scenes, term sets, errors, cost, stability, Campbell, figures."""
     from .verify.scenes import SceneOptions
     from .report.verify_json import study_json
@@ -593,7 +608,8 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
     names = list(scene or SCENES)
     check_verify_options(names, tolerance, integrator, step, rtol, repeats, output, criterion)
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            threshold=threshold, config=config, spin_axis=spin_axis, tolerance=tolerance, rules=rules)
+                            threshold=threshold, config=config, spin_axis=spin_axis, tolerance=tolerance, rules=rules,
+                            excitation=excitation)
     b = _read(body)
     result = run_analysis(b, options)
     h = None if step is None else simulation_setup(b, 1.0, step, None, integrator).step

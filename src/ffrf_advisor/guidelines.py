@@ -49,7 +49,7 @@ class Situation:
 
     ``spin_axis`` is a body-frame direction, ``principal_axis`` (1-3) a principal axis of I0; neither: each
     principal axis, the worst decides. ``speed_range`` (low, high) replaces ``w_op`` by the range's top
-    and the speeds below it (docs/advice.md)."""
+    and the speeds below it; ``excitation`` says what drives the modes (predict.EXCITATIONS; docs/advice.md)."""
 
     w_op: float | None = None
     f_sys: float | None = None
@@ -61,6 +61,7 @@ class Situation:
     tolerance: float = 0.01
     rules: str = "predicted"
     speed_range: tuple[float, float] | None = None
+    excitation: str = "vibration"
 
     def axes(self, body: FlexibleBody | None = None) -> list[np.ndarray]:
         """The spin axes evaluated, as body-frame unit vectors: the given one, or the principal axes."""
@@ -180,7 +181,7 @@ def _toml(path: Path) -> dict:
 
 
 CONFIG_KEYS = {"sigma_allow", "q_cap", "deflection_cap", "n_ratio", "connection", "speed", "f_sys", "thresholds",
-               "spin_axis", "tolerance", "rules", "speed_range"}
+               "spin_axis", "tolerance", "rules", "speed_range", "excitation"}
 
 
 def _validated(cfg: dict, path: Path) -> dict:
@@ -330,7 +331,8 @@ def operating_point(sit: Situation) -> str:
     axes = ("about spin axis " + ", ".join(f"{x:.3g}" for x in sit.spin_axis) if sit.spin_axis is not None
             else f"about principal axis {sit.principal_axis}" if sit.principal_axis is not None
             else "about each principal axis (the worst decides)")
-    return f"{speed} {axes}, connection {sit.connection}, {rules}"
+    modes = "" if sit.excitation == "vibration" else ", modes driven by the rigid motion only"
+    return f"{speed} {axes}, connection {sit.connection}{modes}, {rules}"
 
 
 def _speeds(sit: Situation) -> list[float]:
@@ -351,7 +353,7 @@ def _predicted(body: FlexibleBody, amp: Amplitudes, sit: Situation, stiff: bool)
     if sit.widening:  # the user says widening matters: cf1 is kept whatever its prediction
         sets = [(label, terms) for label, terms in sets if "cf1" in terms]
     found = predictions(body, sets, sit.axes(body), [s * per_s for s in _speeds(sit)], amp.q_max,
-                        amp.sigma_allow, stiff)
+                        amp.sigma_allow, stiff, sit.excitation)
     if sit.widening is False:
         found = [replace(c, errors={**c.errors, "static": 0.0}) for c in found]
     rank = lambda c: (LEVELS.index(level_of(c.terms)), round(c.cost, 9), len(c.terms))  # noqa: E731

@@ -32,6 +32,13 @@ bounds one response error of ``verify`` (verify.measures), on its scales:
   inequality over the modes. A stiffly connected body's rotation is imposed:
   no rigid error then.
 
+The modes' amplitude (``excitation``): ``"vibration"`` (default) lets every
+mode vibrate at q_max (theory 6), whatever excites it; ``"inertial"`` says
+the modes respond only to the body's own rigid motion (spin-up, torque
+pulses, slow manoeuvres): their amplitude is then the reference's static
+centrifugal deflection times the dynamic load factor, and ``mixing`` and
+``rigid`` are evaluated at it (the scales and floors stay on q_max).
+
 At rest (s = 0) every set has the frequencies Omega and no load: all four
 vanish (a torque pulse from rest leaves the modes at rest to first order).
 """
@@ -54,6 +61,7 @@ KINDS = ("frequency", "mixing", "static", "rigid")
 MARGIN = 2.0   # a set is adequate when every prediction is below tolerance / MARGIN (first-order estimates add)
 DLF = 2.0      # dynamic load factor of a sudden load (theory 10, spin-up and torque pulse)
 FLOOR = 0.1    # of |q_max| and sigma_allow: the floors of verify.measures (tested equal)
+EXCITATIONS = ("vibration", "inertial")
 TERM_LEVEL = {"gyro0": "I", "cf1": "II", "inertia_lin": "II", "cor1": "II", "inertia_quad": "III", "cf2": "III",
               "coupling": "III", "geo_stiff": "III", "cor_quad": "IV", "cor_coupling": "IV"}
 
@@ -130,10 +138,13 @@ def response_time(f1: float, s: float) -> float:
     return min(max(5 / f1, 3 * 2 * np.pi / s), 50 / f1)
 
 
-def mixing(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray, sigma_allow: float) -> float:
-    """Stress the flexible gyroscopic matrix at spin s about a moves between the modes at q_max within the
-    response time: ``sum_pq sigma_p c_pq q_max,q`` with ``c_pq = min(|Gy_pq| / nu_pq, |Gy_pq| T / 2)`` (or the
-    deflection ``|c q_max|`` without stress data), over the scale of verify."""
+def mixing(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray, sigma_allow: float,
+           amplitude: np.ndarray | None = None) -> float:
+    """Stress the flexible gyroscopic matrix at spin s about a moves between the modes at their amplitude
+    (default q_max) within the response time: ``sum_pq sigma_p c_pq amplitude_q`` with
+    ``c_pq = min(|Gy_pq| / nu_pq, |Gy_pq| T / 2)`` (or the deflection ``|c amplitude|`` without stress data),
+    over the scale of verify (at least FLOOR of sigma_allow or of |q_max|)."""
+    amplitude = np.abs(q_max) if amplitude is None else amplitude
     nf = body.nf
     if nf < 2 or s <= 0 or "W3" in body.integrals.missing:
         return 0.0
@@ -145,9 +156,10 @@ def mixing(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray, sigma
     c = np.minimum(Gy / np.maximum(nu, 1e-300), Gy * T / 2)
     np.fill_diagonal(c, 0.0)
     if body.sigma_max is None:
-        return float(np.linalg.norm(c @ q_max) / max(np.linalg.norm(q_max), 1e-300))
+        return float(np.linalg.norm(c @ amplitude) / max(np.linalg.norm(amplitude), FLOOR * np.linalg.norm(q_max),
+                                                         1e-300))
     sigma = np.asarray(body.sigma_max)
-    return float(sigma @ c @ q_max / max(sigma @ q_max, FLOOR * sigma_allow, 1e-300))
+    return float(sigma @ c @ amplitude / max(sigma @ amplitude, FLOOR * sigma_allow, 1e-300))
 
 
 def _stress(body: FlexibleBody, q: np.ndarray) -> float:
@@ -195,24 +207,25 @@ def inertia_bound(ref: Model, model: Model, D: np.ndarray) -> np.ndarray:
     return bound
 
 
-def rigid_error(ref: Model, model: Model, q_static: np.ndarray, q_max: np.ndarray, s: float) -> float:
-    """Relative error of w: ``max_k |dI e_k| / I0_kk`` at the static deflection plus every mode at q_max (any
-    signs), and without the W3 group the internal angular momentum ``|C q'|_k / (I0_kk s)`` of the modes
-    vibrating at q_max (``q'_q = Omega_q q_max,q``)."""
-    D = np.vstack([np.diag(q_max), q_static[None, :]])
+def rigid_error(ref: Model, model: Model, q_static: np.ndarray, amplitude: np.ndarray, s: float) -> float:
+    """Relative error of w: ``max_k |dI e_k| / I0_kk`` at the static deflection plus every mode at its
+    amplitude (any signs), and without the W3 group the internal angular momentum ``|C q'|_k / (I0_kk s)``
+    of the modes vibrating at it (``q'_q = Omega_q amplitude_q``)."""
+    D = np.vstack([np.diag(amplitude), q_static[None, :]])
     I0 = np.diag(ref.I0)
     e = float(np.max(np.linalg.norm(inertia_bound(ref, model, D), axis=0) / I0))
     if ref.on("coupling") and not model.on("coupling"):
-        amplitude = np.abs(q_max) + np.abs(q_static)
-        h = np.einsum("p,kpq,q->k", amplitude, np.abs(ref.W3k), np.sqrt(np.abs(ref.eigenvalues)) * np.abs(q_max))
+        deflection = np.abs(amplitude) + np.abs(q_static)
+        h = np.einsum("p,kpq,q->k", deflection, np.abs(ref.W3k), np.sqrt(np.abs(ref.eigenvalues)) * np.abs(amplitude))
         e = max(e, float(np.max(h / (I0 * s))))
     return e
 
 
 def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axes, speeds, q_max: np.ndarray,
-                sigma_allow: float, stiff: bool) -> list[Candidate]:
+                sigma_allow: float, stiff: bool, excitation: str = "vibration") -> list[Candidate]:
     """Every set's predicted errors, the worst over ``axes`` (unit vectors) and ``speeds`` (rad per body time
-    unit), against the reference set; cost relative to the reference's right-hand side."""
+    unit), against the reference set, with the modes at the ``excitation``'s amplitude; cost relative to the
+    reference's right-hand side."""
     ref_terms = reference_terms(body)
     ref = build_model(body, ref_terms)
     models = [build_model(body, terms) for _, terms in sets]
@@ -223,7 +236,7 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
         for s in speeds:
             if s <= 0:
                 continue
-            e = _at(body, ref, models, sets, a, s, q_max, sigma_allow, stiff)
+            e = _at(body, ref, models, sets, a, s, q_max, sigma_allow, stiff, excitation)
             worse = e > errors
             errors = np.where(worse, e, errors)
             where = np.where(worse, i_axis, where)
@@ -232,12 +245,19 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
                       rhs_cost(terms, body.nf) / full) for i, (label, terms) in enumerate(sets)]
 
 
-def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff) -> np.ndarray:
+def modal_amplitude(excitation: str, q_max: np.ndarray, q_static: np.ndarray) -> np.ndarray:
+    """The modes' amplitudes: q_max where they may vibrate freely, the static deflection times the dynamic load
+    factor where only the rigid motion drives them (module docstring)."""
+    return np.abs(q_max) if excitation == "vibration" else DLF * np.abs(q_static)
+
+
+def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff, excitation) -> np.ndarray:
     """(sets, KINDS) predictions at one spin s about one axis a."""
     w = s * a
     f_ref, V_ref, _ = modal_spectrum(ref, a, s)
     q_ref = static_deflection(ref, w)
-    mix = mixing(body, a, s, q_max, sigma_allow)
+    amplitude = modal_amplitude(excitation, q_max, q_ref)
+    mix = mixing(body, a, s, q_max, sigma_allow, amplitude)
     widening = exact_widening(body, a, s)
     out = np.zeros((len(sets), len(KINDS)))
     for i, (model, (_, terms)) in enumerate(zip(models, sets)):
@@ -248,7 +268,7 @@ def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff) -> np.n
                   0.0 if model.on("cor_coupling") or not ref.on("cor_coupling") else mix,
                   static_error(body, static_deflection(model, w), q_ref, q_max, sigma_allow,
                                widening if ref.on("cf1") and not model.on("cf1") else 0.0),
-                  0.0 if stiff else rigid_error(ref, model, q_ref, q_max, s))
+                  0.0 if stiff else rigid_error(ref, model, q_ref, amplitude, s))
     return out
 
 

@@ -71,7 +71,7 @@ def analysis_json(a: Analysis, source: str) -> dict:
             "spin_axis": None if sit.spin_axis is None else list(sit.spin_axis),
             "principal_axis": sit.principal_axis, "tolerance": sit.tolerance, "rules": sit.rules,
             "speed_range_rad_s": None if sit.speed_range is None else list(sit.speed_range),
-            "at_rest": sit.at_rest,
+            "at_rest": sit.at_rest, "excitation": sit.excitation,
         },
         "operating_point": adv.operating_point,
         "candidates": [{"label": c.label, "terms": list(c.terms), "level": level_of(c.terms), "cost": c.cost,

@@ -107,13 +107,16 @@ def advice_speed(a: Analysis, scenes) -> float:
 
 
 def for_scenes(a: Analysis, scenes) -> Analysis:
-    """``a``, or ``a`` analysed again at the scenes' highest spin when that exceeds w_op (a torque pulse from
-    rest leaves the body spinning; without --speed the scenes spin at a default speed): the advice must cover
-    the motion it is checked against."""
+    """``a``, or ``a`` analysed again for the motion it is checked against: at the scenes' highest spin when
+    that exceeds w_op (a torque pulse from rest leaves the body spinning; without --speed the scenes spin at a
+    default speed), and with the modes driven by the rigid motion only when no scene starts them vibrating
+    (docs/advice.md, excitation)."""
     speed, sit = advice_speed(a, scenes), a.options.situation
-    if sit.w_op is not None and speed <= sit.w_op:
+    excitation = "vibration" if any(sc.vibrating for sc in scenes) else "inertial"
+    if sit.w_op is not None and speed <= sit.w_op and excitation == sit.excitation:
         return a
-    return analyze(a.body, replace(a.options, situation=replace(sit, w_op=speed)))
+    return analyze(a.body, replace(a.options, situation=replace(sit, w_op=max(speed, sit.w_op or 0.0),
+                                                                 excitation=excitation)))
 
 
 def stiffened(a: Analysis, terms) -> tuple[str, ...]:

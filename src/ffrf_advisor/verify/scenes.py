@@ -44,6 +44,11 @@ class Scene:
     def prescribed(self) -> bool:
         return self.loads.prescribed is not None
 
+    @property
+    def vibrating(self) -> bool:
+        """Whether the modes start deflected or moving (else only the rigid motion drives them)."""
+        return bool(np.any(self.q0) or np.any(self.qd0))
+
 
 @dataclass(frozen=True)
 class SceneOptions:

@@ -52,6 +52,7 @@ def run_task(task: Task) -> dict:
     other = {c: judge(a, v.results, v.references, task.tolerance, c) for c in CRITERIA if c != task.criterion}
     return {"body": body.name, "speed_rad_s": task.speed, "fraction_of_s_crit": task.fraction,
             "scenes": list(task.scenes), "advice_speed_rad_s": a.options.situation.w_op,
+            "advice_excitation": a.options.situation.excitation,
             "advised_level": a.advice.level, "advised_terms": list(a.advice.terms), "criterion": task.criterion,
             "cheapest": v.verdict.cheapest, "verdict": v.verdict.verdict, "text": v.verdict.text,
             "broken": [list(b) for b in v.verdict.broken],

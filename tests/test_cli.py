@@ -1,6 +1,7 @@
 """The command line through typer's runner and as a real process."""
 from __future__ import annotations
 
+import copyreg
 import subprocess
 import sys
 from dataclasses import replace
@@ -12,6 +13,7 @@ from typer.testing import CliRunner
 from ffrf_advisor import __version__
 from ffrf_advisor.body import ModalFE
 from ffrf_advisor.cli import app
+from ffrf_advisor.errors import BodyFileError, FFRFError
 from ffrf_advisor.invariants import shape_integrals
 from ffrf_advisor.io import write_body
 
@@ -52,6 +54,18 @@ def test_unknown_version_through_the_cli(tmp_path):
         f.attrs["version"] = 7
     result = runner.invoke(app, ["info", str(path)])
     assert result.exit_code == 2 and "@version" in result.output
+
+
+def _foreign_exception(text):  # a reducer's function, as tblib registers for every exception class
+    return RuntimeError(text)
+
+
+def test_reader_errors_survive_a_package_that_registers_reducers_for_exceptions(tmp_path, monkeypatch):
+    """Importing Dask distributed installs tblib's reducers for every exception class; the reading child must
+    still send errors the parent reads (found when test_verify's distributed sweep ran before this file)."""
+    for cls in (ValueError, OSError, KeyError, FFRFError, BodyFileError):
+        monkeypatch.setitem(copyreg.dispatch_table, cls, lambda e: (_foreign_exception, (str(e),)))
+    test_unknown_version_through_the_cli(tmp_path)
 
 
 def test_failed_assumptions_are_reported_with_their_caveat(tmp_path, block_body):

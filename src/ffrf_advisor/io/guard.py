@@ -15,6 +15,7 @@ parent kills and reaps it on every path out (error, Ctrl-C, SIGTERM).
 from __future__ import annotations
 
 import builtins
+import copyreg
 import ctypes
 import faulthandler
 import io
@@ -120,15 +121,25 @@ def _child(fd: int, seconds: float, limit: int, fn, args) -> None:
         except BaseException as e:  # noqa: BLE001 - the parent re-raises it
             message = (False, _transportable(e))
         try:
-            data = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
+            data = _dumps(message)
         except Exception as e:  # noqa: BLE001 - an exception that does not pickle travels as its text
-            data = pickle.dumps((False, RuntimeError(f"{type(message[1]).__name__}: {e}")))
+            data = _dumps((False, RuntimeError(f"{type(message[1]).__name__}: {e}")))
         view = memoryview(data)
         while view:
             view = view[os.write(fd, view):]
     except BaseException:  # noqa: BLE001 - nothing may return into the parent's code
         code = 1
     os._exit(code)
+
+
+def _dumps(message) -> bytes:
+    """The child's message pickled with the standard reductions of exceptions: a package that registered its
+    own (tblib, which Dask distributed imports) would send functions the parent's allow-list refuses."""
+    buffer = io.BytesIO()
+    pickler = pickle.Pickler(buffer, protocol=pickle.HIGHEST_PROTOCOL)
+    pickler.dispatch_table = {t: f for t, f in copyreg.dispatch_table.items() if not issubclass(t, BaseException)}
+    pickler.dump(message)
+    return buffer.getvalue()
 
 
 def _bound_self(seconds: float, limit: int) -> None:

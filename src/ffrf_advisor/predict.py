@@ -10,12 +10,14 @@ bounds one response error of ``verify`` (verify.measures), on its scales:
   degenerate pair split by the spin counts); ``max |f_T - f_R| / f_R``.
   Bounds the response error of a run that drifts in phase.
 - ``mixing``: the shape change by the flexible gyroscopic matrix
-  ``Gy = 2 s sum_k a_k W3k^T`` (term ``cor_coupling``) that T lacks: from a
-  pure mode q, mode p gains ``|Gy_pq| / nu |sin(nu t / 2)|`` with
-  ``nu = sqrt((Omega_p - Omega_q)^2 + Gy_pq^2)`` (two coupled modes), at most
-  ``min(|Gy_pq| / nu, |Gy_pq| T / 2)`` within the response time T; as stress
-  moved between the modes at q_max. Bounds the change of peak stress where
-  frequencies barely move (close modes; a degenerate pair's whirl).
+  ``Gy = 2 s sum_k a_k W3k^T`` (term ``cor_coupling``) that T lacks: released
+  alone at q_max, mode q drives every mode p of the linear gyroscopic system
+  (exactly, by its eigenvectors), at most by ``|Gy_pq| T / 2`` within the
+  response time T; as stress moved between the modes, the released modes'
+  contributions combined by the ten-percent rule (absolute sum where
+  frequencies are within 10 %, root-sum-square otherwise). Bounds the change
+  of peak stress where frequencies barely move (close modes; a degenerate
+  pair's whirl).
 - ``static``: the static centrifugal deflection of each set at spin s
   (``q`` with flexible force 0), its stress ``sum_p sigma_p |dq_p|`` and
   deflection ``|dq|``, times the dynamic load factor 2 of a sudden load,
@@ -138,28 +140,49 @@ def response_time(f1: float, s: float) -> float:
     return min(max(5 / f1, 3 * 2 * np.pi / s), 50 / f1)
 
 
+def gyroscopic_transfer(om: np.ndarray, Gy: np.ndarray) -> np.ndarray:
+    """(nf, nf): the largest ``|q_p| / A`` that mode q released from ``A`` at rest reaches in the linear system
+    ``q'' + Gy q' + diag(om^2) q = 0``: the sum of the moduli of its modal contributions (exact for the
+    system, all modes coupled at once; the eigenvalues are imaginary, Gy being skew)."""
+    nf = len(om)
+    A = np.block([[np.zeros((nf, nf)), np.eye(nf)], [-np.diag(om**2), -Gy]])
+    _, V = np.linalg.eig(A)
+    W = np.linalg.solve(V, np.eye(2 * nf)[:, :nf])
+    return np.einsum("pk,kq->pq", np.abs(V[:nf]), np.abs(W))
+
+
+def ten_percent(R: np.ndarray, om: np.ndarray) -> float:
+    """Modal responses R_i at frequencies om_i combined by the ten-percent rule of modal combination:
+    ``sqrt(sum R_i^2 + 2 sum_{i<j close} |R_i R_j|)``, close where the frequencies differ by at most 10 %
+    (absolute sum within a close group, root-sum-square across well-separated ones)."""
+    R = np.abs(R)
+    close = np.abs(om[:, None] - om[None, :]) <= 0.1 * np.minimum(om[:, None], om[None, :])
+    return float(np.sqrt(R @ close @ R))
+
+
 def mixing(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray, sigma_allow: float,
            amplitude: np.ndarray | None = None) -> float:
     """Stress the flexible gyroscopic matrix at spin s about a moves between the modes at their amplitude
-    (default q_max) within the response time: ``sum_pq sigma_p c_pq amplitude_q`` with
-    ``c_pq = min(|Gy_pq| / nu_pq, |Gy_pq| T / 2)`` (or the deflection ``|c amplitude|`` without stress data),
-    over the scale of verify (at least FLOOR of sigma_allow or of |q_max|)."""
+    (default q_max) within the response time: ``c_pq = min(transfer_pq, |Gy_pq| T / 2)``
+    (``gyroscopic_transfer``; the resonant growth caps it), each released mode q moving
+    ``R_q = sum_p sigma_p c_pq amplitude_q`` (or the deflection ``|c_q| amplitude_q`` without stress data),
+    the R_q combined by the ten-percent rule over their frequencies, over the scale of verify (at least
+    FLOOR of sigma_allow or of |q_max|)."""
     amplitude = np.abs(q_max) if amplitude is None else amplitude
     nf = body.nf
     if nf < 2 or s <= 0 or "W3" in body.integrals.missing:
         return 0.0
     W3k = body.integrals.W3().reshape(3, nf, nf)
-    Gy = np.abs(2 * s * np.einsum("k,krs->sr", a, W3k))
+    Gy = 2 * s * np.einsum("k,krs->sr", a, W3k)
     om = np.sqrt(np.abs(body.eigenvalues))
-    nu = np.hypot(om[:, None] - om[None, :], Gy)
     T = response_time(om[0] / (2 * np.pi), s)
-    c = np.minimum(Gy / np.maximum(nu, 1e-300), Gy * T / 2)
+    c = np.minimum(gyroscopic_transfer(om, Gy), np.abs(Gy) * T / 2)
     np.fill_diagonal(c, 0.0)
     if body.sigma_max is None:
-        return float(np.linalg.norm(c @ amplitude) / max(np.linalg.norm(amplitude), FLOOR * np.linalg.norm(q_max),
-                                                         1e-300))
+        moved = np.linalg.norm(c, axis=0) * amplitude
+        return ten_percent(moved, om) / max(np.linalg.norm(amplitude), FLOOR * np.linalg.norm(q_max), 1e-300)
     sigma = np.asarray(body.sigma_max)
-    return float(sigma @ c @ amplitude / max(sigma @ amplitude, FLOOR * sigma_allow, 1e-300))
+    return ten_percent((sigma @ c) * amplitude, om) / max(sigma @ amplitude, FLOOR * sigma_allow, 1e-300)
 
 
 def _stress(body: FlexibleBody, q: np.ndarray) -> float:

@@ -16,6 +16,7 @@ Q_CAP = 1.0          # in t-mm units: sqrt(t) * mm
 # small deformations only: the paper asks for deflections one to two orders of magnitude below the body's size,
 # and Adams checks modal deflections against a characteristic length. 5 % is the lenient end of that (1/20).
 SMALL_DEFORMATION = 0.05
+MAX_DEFLECTION = 1e3  # of the body's largest dimension: given amplitudes beyond are refused
 
 
 @dataclass(frozen=True)
@@ -85,6 +86,19 @@ def small_deformation_warnings(ratio: np.ndarray | None, governs: tuple[str, ...
             f"fix: {fix}"]
 
 
+def _check_size(body: FlexibleBody, q: np.ndarray, deflection: np.ndarray | None) -> None:
+    """Given amplitudes deflect the body at most MAX_DEFLECTION times its size (theory 6; beyond, the numbers
+    overflow long before they mean anything): the mesh's deflection, else the rms deflection of a
+    mass-normalised mode, ``q / sqrt(m)``."""
+    with np.errstate(over="ignore"):  # an overflow is a ratio of inf, refused below
+        moved = deflection * q if deflection is not None else q / np.sqrt(body.mass)
+        ratio = moved / body.largest_dimension()
+    p = int(np.argmax(ratio))
+    if not ratio[p] <= MAX_DEFLECTION:
+        raise FFRFError(f"--q-max: mode {p + 1} at {q[p]:.3g} deflects the body by {ratio[p]:.3g} times its largest "
+                        f"dimension; expected at most {MAX_DEFLECTION:g} (the FFRF needs small deformations)")
+
+
 def q_max(body: FlexibleBody, opts: AmplitudeOptions = AmplitudeOptions()) -> Amplitudes:
     """The paper's procedure: q_max,1 = min(q_cap, sigma_allow / sigma_1), q_max,p = q_max,1 lambda_1 / lambda_p."""
     q_cap = opts.q_cap * factor(TMM, body.units, "q")
@@ -94,6 +108,7 @@ def q_max(body: FlexibleBody, opts: AmplitudeOptions = AmplitudeOptions()) -> Am
         q = np.asarray(opts.q_max, float)
         if q.shape != (body.nf,) or not np.all(np.isfinite(q)) or np.any(q < 0):
             raise FFRFError(f"q_max: expected {body.nf} non-negative numbers (one per mode), got {len(q)}")
+        _check_size(body, q, deflection)
         governs = ("user",) * body.nf
         warnings: list[str] = []
     else:

@@ -1,9 +1,10 @@
 """One advisor run: body -> q_max -> significance -> advice (theory sections 6-8)."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
-import math
+import numpy as np
 
 from .amplitudes import AmplitudeOptions, Amplitudes, q_max
 from .body import FlexibleBody
@@ -38,6 +39,9 @@ def _number(name: str, value, positive: bool) -> None:
         raise FFRFError(f"{name} {value!r}: expected a finite {'positive' if positive else 'non-negative'} number")
 
 
+MAX_SPEED = 1e9  # rad/s
+
+
 def check_options(options: Options) -> None:
     """Every analysis option finite and in range (theory section 8): NaN or inf would switch rules off."""
     amp, sit = options.amplitudes, options.situation
@@ -47,6 +51,9 @@ def check_options(options: Options) -> None:
         _number("--deflection-cap", amp.deflection_cap, True)
     if sit.w_op is not None:
         _number("--speed", sit.w_op, False)
+        if sit.w_op > MAX_SPEED:
+            raise FFRFError(f"--speed {sit.w_op:g} rad/s: expected at most {MAX_SPEED:g} rad/s "
+                            f"({MAX_SPEED / (2 * math.pi):.3g} Hz, far above any structure's modes)")
     if sit.f_sys is not None:
         _number("--f-sys", sit.f_sys, True)
     n = options.n_ratio
@@ -61,11 +68,17 @@ def check_options(options: Options) -> None:
 
 
 def analyze(body: FlexibleBody, options: Options = Options()) -> Analysis:
-    """q_max, significance and advice of ``body`` with checked ``options`` (theory sections 6-8)."""
+    """q_max, significance and advice of ``body`` with checked ``options`` (theory sections 6-8). An overflow or
+    an invalid operation is an error naming the body and the options, never a NaN in a result."""
     check_options(options)
-    amp = q_max(body, options.amplitudes)
-    sig = significance(body, amp.q_max, options.n_ratio)
-    checks = tuple(run_checks(body))
-    advice = advise(body, amp, sig, options.situation)
+    try:
+        with np.errstate(over="raise", invalid="raise"):
+            amp = q_max(body, options.amplitudes)
+            sig = significance(body, amp.q_max, options.n_ratio)
+            checks = tuple(run_checks(body))
+            advice = advise(body, amp, sig, options.situation)
+    except FloatingPointError as e:
+        raise FFRFError(f"{body.name}: analysis: expected numbers of physical size in the body and the options "
+                        f"(--speed, --q-max, --sigma-allow, --q-cap), got {e}") from None
     advice = replace(advice, warnings=check_warnings(list(checks)) + advice.warnings)
     return Analysis(body, options, amp, sig, advice, checks)

@@ -1,0 +1,69 @@
+"""Hostile option values (issue 23, items 4 and 9, and the property test): any float for any numeric option gives
+a valid result without NaN or a one-line error with exit 2, never a traceback, a NaN in JSON or a numpy warning."""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from typer.testing import CliRunner
+
+from ffrf_advisor.cli import app
+from ffrf_advisor.guidelines import THRESHOLDS
+
+BEAM = Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5"
+runner = CliRunner()
+
+FLOATS = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
+                   st.sampled_from([1e308, -1e308, 5e-324, 2.2e-308, 0.0, -0.0, 1e154, 1e-154]))
+OPTIONS = ("--speed", "--sigma-allow", "--q-cap", "--deflection-cap", "--f-sys", "--tolerance", "--q-max")
+
+
+def _strict(text: str) -> dict:
+    """JSON that refuses NaN and infinities (which json.dumps would write as invalid tokens)."""
+    def bad(token):
+        raise ValueError(f"non-finite number {token} in the JSON")
+    return json.loads(text, parse_constant=bad)
+
+
+def _outcome(args: list[str]) -> str:
+    result = runner.invoke(app, ["analyze", str(BEAM), "--rules", "thresholds", *args, "--json"])
+    text = result.output
+    assert "Traceback" not in text and "Warning" not in text, (args, text[-2000:])
+    if result.exit_code == 0:
+        _strict(text)
+        return "valid"
+    assert result.exit_code == 2 and len(text.strip().splitlines()) == 1, (args, result.exit_code, text[-2000:])
+    return "error"
+
+
+def test_a_huge_finite_q_max_is_one_line_naming_the_option():
+    """Item 4: --q-max 1e308 for every mode gave 30 RuntimeWarning lines, NaN in the JSON and a rule flipped."""
+    result = runner.invoke(app, ["analyze", str(BEAM), "--speed", "30rad/s", "--q-max", ",".join(["1e308"] * 16)])
+    assert result.exit_code == 2 and result.output.startswith("error: --q-max: mode 1")
+    assert len(result.output.strip().splitlines()) == 1
+
+
+def test_a_huge_finite_speed_is_one_line_naming_the_option():
+    """Item 9: --speed 1e308rad/s gave 'unexpected OverflowError'."""
+    result = runner.invoke(app, ["analyze", str(BEAM), "--speed", "1e308rad/s"])
+    assert result.exit_code == 2 and result.output.startswith("error: --speed 1e+308 rad/s: expected at most")
+
+
+@pytest.mark.slow  # a minute: a few hundred analyses of the beam
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(option=st.sampled_from(OPTIONS + tuple(f"--threshold {name}" for name in THRESHOLDS)), value=FLOATS)
+def test_any_float_for_any_numeric_option_is_a_valid_result_or_one_line(option, value):
+    text = repr(value) if math.isfinite(value) else str(value)
+    if option == "--q-max":
+        args = [option, ",".join([text] * 16)]
+    elif option.startswith("--threshold"):
+        args = ["--threshold", f"{option.split()[1]}={text}"]
+    elif option == "--speed":
+        args = [option, f"{text}rad/s"]
+    else:
+        args = [option, text]
+    _outcome(args + (["--speed", "30rad/s"] if option != "--speed" else []))

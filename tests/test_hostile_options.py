@@ -53,6 +53,15 @@ def test_a_huge_finite_speed_is_one_line_naming_the_option():
     assert result.exit_code == 2 and result.output.startswith("error: --speed 1e+308 rad/s: expected at most")
 
 
+@pytest.mark.parametrize("args", [["analyze"], ["analyze", str(BEAM), "--bogus"], ["analyze", str(BEAM), "--n-ratio", "x"],
+                                  ["gate", str(BEAM)]])
+def test_usage_errors_are_one_line_with_exit_2(args):
+    """Item 9: typer's usage errors were three lines and a box."""
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert result.output.startswith("error: ") and f"see `ffrf-advisor {args[0]} --help`" in result.output
+
+
 @pytest.mark.slow  # a minute: a few hundred analyses of the beam
 @settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(option=st.sampled_from(OPTIONS + tuple(f"--threshold {name}" for name in THRESHOLDS)), value=FLOATS)

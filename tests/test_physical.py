@@ -68,3 +68,30 @@ def test_an_invariants_file_with_an_impossible_I7_is_refused(tmp_path, I7):
 def test_a_thin_plate_on_the_triangle_inequality_is_possible():
     """I3 = I1 + I2 holds for a plate to its rounding: the tolerance lets it through."""
     assert runner.invoke(app, ["info", str(SAMPLE.parent / "plate.ffrf.h5")]).exit_code == 0
+
+
+def _without_cache(f) -> None:
+    for name in ("geometric_stiffness", "invariants", "static_centrifugal"):
+        del f[name]
+
+
+def test_a_body_without_modes_is_one_line_naming_the_eigenvalues(beam):
+    """Item 9: a body with 0 modes gave ZeroDivisionError."""
+    with h5py.File(beam, "r+") as f:
+        _without_cache(f)
+        del f["stress"]
+        Phi = f["modes/Phi"][:, :, :0]
+        del f["modes/Phi"], f["modes/eigenvalues"]
+        f["modes/Phi"], f["modes/eigenvalues"] = Phi, np.zeros(0)
+    _one_line(runner.invoke(app, ["analyze", str(beam)]), "modes/eigenvalues: expected at least one flexible mode")
+
+
+@pytest.mark.parametrize("values, said", [(5e-324 * np.arange(1, 17), "from 1e-150"),
+                                          (np.r_[1e-12, np.full(15, 1e4)], "a nearly rigid mode")])
+def test_denormal_and_nearly_rigid_eigenvalues_are_refused(beam, values, said):
+    """Item 9: denormal eigenvalues ended in an overflow far from the file; a mode 1e-16 of the largest
+    eigenvalue is a rigid mode (as the Nastran reader separates them, 1e-10), not a flexible one."""
+    with h5py.File(beam, "r+") as f:
+        _without_cache(f)
+        f["modes/eigenvalues"][...] = values
+    _one_line(runner.invoke(app, ["analyze", str(beam)]), said)

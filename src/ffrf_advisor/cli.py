@@ -4,12 +4,15 @@ from __future__ import annotations
 import functools
 import json
 import tempfile
+import sys
 import time
 from pathlib import Path
 from typing import Annotated, Optional
 
 import numpy as np
 import typer
+from typer._click.exceptions import NoArgsIsHelpError, UsageError  # typer vendors click (pinned)
+from typer.core import TyperGroup
 from rich.console import Console
 
 from . import __version__
@@ -36,10 +39,36 @@ from .verify.checks import SCENES, check_verify_options
 from .solver_settings import SOLVERS, adams_settings
 from .terms import parse_terms
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, rich_markup_mode=None,  # help texts keep [units]
-                  help="Which FFRF inertia terms does a flexible body need? Advice with evidence.")
 out = Console(emoji=False)  # names like zoo:ring:1003 stay text (":ring:" is an emoji code)
 err = Console(stderr=True, emoji=False)
+
+
+class OneLineUsage(TyperGroup):
+    """Usage errors (unknown option, missing argument, bad value) as one line on stderr with exit 2, like every
+    other bad input; without arguments the help, on stderr, with exit 2."""
+
+    def main(self, *args, standalone_mode: bool = True, **kwargs):
+        try:
+            code = super().main(*args, standalone_mode=False, **kwargs)
+        except NoArgsIsHelpError as e:
+            print(e.format_message(), file=sys.stderr)
+            code = EXIT_BAD_INPUT
+        except UsageError as e:
+            where = " ".join(["ffrf-advisor", *(e.ctx.command_path.split()[1:] if e.ctx is not None else [])])
+            err.print(f"error: {' '.join(e.format_message().split())} (see `{where} --help`)", markup=False,
+                      highlight=False, soft_wrap=True)
+            code = EXIT_BAD_INPUT
+        except typer.Abort:
+            err.print("aborted", highlight=False)
+            code = 1
+        if standalone_mode:
+            sys.exit(code if isinstance(code, int) else 0)
+        return code
+
+
+app = typer.Typer(cls=OneLineUsage, add_completion=False, no_args_is_help=True,
+                  rich_markup_mode=None,  # help texts keep [units]
+                  help="Which FFRF inertia terms does a flexible body need? Advice with evidence.")
 
 EXIT_BAD_INPUT = 2
 

@@ -103,6 +103,7 @@ def in_range(body: FlexibleBody, path) -> FlexibleBody:
     return body
 
 
+RIGID_SHARE = 1e-10  # of the largest eigenvalue: below it a mode is rigid (as the Nastran reader separates them)
 TRIANGLE = 1e-6  # of trace I0: a thin plate has I3 = I1 + I2 up to its file's rounding
 
 
@@ -126,10 +127,16 @@ def flexible_modes_in_order(body: FlexibleBody, path) -> FlexibleBody:
     lam = np.asarray(body.eigenvalues)
     if body.nf == 0:
         raise BodyFileError(path, "eigenvalues", "at least one flexible mode", "none")
-    bad = np.flatnonzero(~np.isfinite(lam) | (lam <= 0))
+    bad = np.flatnonzero(~np.isfinite(lam) | (lam < 1 / LARGEST))
     if bad.size:
-        raise BodyFileError(path, "eigenvalues", "finite positive values (flexible modes only)",
+        raise BodyFileError(path, "eigenvalues", f"finite positive values from {1 / LARGEST:.0e} (flexible modes only)",
                             f"{lam[bad[0]]:.6g} for mode {bad[0] + 1}")
+    soft = np.flatnonzero(lam < RIGID_SHARE * lam.max())
+    if soft.size:
+        p = soft[0]
+        raise BodyFileError(path, "eigenvalues", f"flexible modes above {RIGID_SHARE:g} of the largest eigenvalue",
+                            f"{lam[p]:.6g} for mode {p + 1} ({np.sqrt(lam[p]) / (2 * np.pi):.3g} cycles per time "
+                            "unit): a nearly rigid mode; leave rigid modes out of the file")
     order = np.argsort(lam, kind="stable")
     if np.any(order != np.arange(body.nf)):
         body = body.with_modes(order)

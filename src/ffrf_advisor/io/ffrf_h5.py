@@ -326,6 +326,8 @@ def _mode_count(r: _Reader) -> int:
     """nf as the eigenvalues declare it, checked against every other per-mode dataset before any is read."""
     eigenvalues = r.node("modes/eigenvalues")
     nf = eigenvalues.shape[0] if eigenvalues.ndim == 1 else None
+    if nf == 0:
+        r.fail("modes/eigenvalues", "at least one flexible mode", "none")
     for name, axis in (("stress/max", 0), ("modes/Phi", 2), ("invariants/mode_sum", 1)):
         ds = r.f.get(name)
         if isinstance(ds, h5py.Dataset) and nf is not None and ds.ndim > axis and ds.shape[axis] != nf:

@@ -13,6 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
+from ffrf_advisor.report.verify_input import PNG_SIGNATURE, figures_beside
 
 ROOT = Path(__file__).resolve().parents[1]
 BEAM = ROOT / "sample_bodies" / "beam.ffrf.h5"
@@ -177,6 +178,28 @@ def test_a_verification_is_run_or_passed_in(tmp_path):
     verdict = json.loads(done.stdout)["verdict"]
     assert "Verification by simulation" in text and verdict["text"] in text
     assert page.tags.count("figure") > FIGURES  # the verification's figures too
+    outside = tmp_path.parent / f"{tmp_path.name}-outside.png"  # a PNG elsewhere on disk, named by the JSON
+    outside.write_bytes(next(folder.glob("*.png")).read_bytes())
+    doc = json.loads(done.stdout)
+    doc["figures"] += [str(outside), f"../{outside.name}"]
+    (tmp_path / "v.json").write_text(json.dumps(doc))
+    assert runner.invoke(app, ["report", str(body), "--speed", "1rad/s", "--verification",
+                               str(tmp_path / "v.json"), "-o", str(out), "--force"]).exit_code == 0
+    assert _parse(out).tags.count("figure") == page.tags.count("figure")
+
+
+def test_a_verification_embeds_only_the_pngs_beside_its_json(tmp_path):
+    """Item 15: report --verification embedded any PNG the JSON named, and resolved relative paths against the
+    working directory."""
+    png = PNG_SIGNATURE + b"rest"
+    (tmp_path / "v").mkdir()
+    (tmp_path / "v" / "campbell.png").write_bytes(png)
+    (tmp_path / "elsewhere.png").write_bytes(png)
+    (tmp_path / "v" / "fake.png").write_text("not a picture")
+    named = ["campbell.png", "other/v/campbell.png", str(tmp_path / "elsewhere.png"), "../elsewhere.png",
+             "fake.png", "/etc/passwd"]
+    inside = str((tmp_path / "v" / "campbell.png").resolve())
+    assert figures_beside(named, tmp_path / "v") == [inside, inside]
 
 
 def test_an_invariants_file_without_I9_reports_what_it_cannot_draw(tmp_path):

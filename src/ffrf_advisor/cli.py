@@ -29,6 +29,7 @@ from .report.console import (analysis_summary, body_summary, progress_bar, shown
                              verification_report)
 from .adequacy import basis_errors
 from .report.json_out import SCHEMA_VERSION, analysis_json, info_json
+from .report.verify_input import read_verification
 from .schemas import COMMANDS as SCHEMA_COMMANDS, schema_text
 from .samples import SAMPLES, sample as make_sample
 from .sim.integrate import FIXED, INTEGRATORS, integrate
@@ -424,13 +425,7 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
 def _verification(analysis, body: Path, folder: Optional[Path], given: Optional[Path]) -> Optional[dict]:
     """A verification for the report: read from a file, run now (figures into ``folder``), or none."""
     if given is not None:
-        try:
-            data = json.loads(given.read_text(encoding="utf-8"))
-            if not isinstance(data, dict) or data.get("schema_version") != 2 or "verdict" not in data:
-                raise ValueError("not the JSON of `verify --json` (schema_version 2)")
-        except (OSError, ValueError) as e:
-            raise FFRFError(f"{given}: --verification: expected the JSON of `verify --json`, got {e}") from None
-        return data
+        return read_verification(given)
     if folder is None:
         return None
     from .report.verify_json import study_json

@@ -1,6 +1,7 @@
 """The CI gate: analyse many bodies (in parallel) and compare their level with the model's."""
 from __future__ import annotations
 
+import os
 import time
 import xml.etree.ElementTree as ET
 from concurrent.futures import ProcessPoolExecutor
@@ -14,6 +15,7 @@ from .errors import FFRFError
 from .guidelines import LEVELS
 from .io import check_reader_options, read_body
 from .io.atomic import refuse_inputs
+from .io.guard import die_with_parent
 from .report.json_out import analysis_json
 
 PROGRESS_FROM = 5  # show a progress bar from this many bodies on
@@ -52,7 +54,7 @@ def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, cons
                 results.append(gate_one(p, options, max_level, read_options))
                 progress.advance(task)
             return results
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
+        with ProcessPoolExecutor(max_workers=jobs, initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
             futures = [pool.submit(gate_one, p, options, max_level, read_options) for p in paths]
             for f in futures:
                 f.add_done_callback(lambda _: progress.advance(task))

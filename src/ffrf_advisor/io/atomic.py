@@ -1,8 +1,9 @@
 """Atomic output: write to a temporary file beside the target, fsync, then rename.
 
 The temporary file ``.NAME.PID.*.tmp`` is removed on any failure and on
-SIGTERM (in the main thread); one left by a killed process (SIGKILL, power
-loss) is swept by the next write to the same target once its process is gone.
+SIGTERM (in the main thread: the process then ends at once with 143); one
+left by a killed process (SIGKILL, power loss) is swept by the next write to
+the same target once its process is gone.
 """
 from __future__ import annotations
 
@@ -19,15 +20,17 @@ from ..errors import FFRFError
 
 
 _RUN_INPUTS: ContextVar[list[Path] | None] = ContextVar("run_inputs", default=None)
+_TEMPORARIES: set[Path] = set()  # this process's temporaries being written
 
 
 @contextmanager
 def one_run() -> Iterator[None]:
     """Within it, every file read as an input (``note_input``) is refused as a target by ``atomic_path``,
-    whatever ``--force`` says: a command never writes over what it reads."""
+    whatever ``--force`` says: a command never writes over what it reads; SIGTERM ends it with 143."""
     token = _RUN_INPUTS.set([])
     try:
-        yield
+        with terminate_cleanly():
+            yield
     finally:
         _RUN_INPUTS.reset(token)
 
@@ -69,14 +72,16 @@ def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[
     os.close(fd)
     tmp = Path(tmp)
     os.chmod(tmp, _mode(target))
+    _TEMPORARIES.add(tmp)
     try:
-        with _terminate_as_exit():
+        with terminate_cleanly():
             yield tmp
             _fsync(tmp)
             os.replace(tmp, target)
             _fsync(target.parent)
     finally:
         tmp.unlink(missing_ok=True)
+        _TEMPORARIES.discard(tmp)
 
 
 def _sweep_stale(target: Path) -> None:
@@ -107,18 +112,27 @@ def _fsync(path: Path) -> None:
 
 
 @contextmanager
-def _terminate_as_exit():
-    """SIGTERM raises SystemExit while writing (main thread only), so the temporary file is removed."""
+def terminate_cleanly():
+    """Within it (main thread only), SIGTERM removes this process's temporaries and ends the process at once
+    with 128 + 15. An exception raised from the handler instead could land in a C or weakref callback, be
+    printed as ignored, and let the run finish as if nothing happened."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    def stop(signum, frame):  # noqa: ARG001
-        raise SystemExit(128 + signum)
-    previous = signal.signal(signal.SIGTERM, stop)
+    previous = signal.signal(signal.SIGTERM, _on_terminate)
     try:
         yield
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def _on_terminate(signum, frame) -> None:  # noqa: ARG001
+    for tmp in list(_TEMPORARIES):
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+    os._exit(128 + signum)
 
 
 def _mode(target: Path) -> int:

@@ -142,13 +142,21 @@ def _dumps(message) -> bytes:
     return buffer.getvalue()
 
 
-def _bound_self(seconds: float, limit: int) -> None:
-    """Die with the parent, at the deadline, and before allocating more than the memory limit."""
-    faulthandler.disable()  # a crash is reported by the parent, in one line
+def die_with_parent(parent: int | None = None) -> None:
+    """Have the kernel kill this process when its parent ends (Linux; elsewhere a no-op), and end now when the
+    parent ``parent`` is already gone: no child of the tool outlives it (a pool's initializer)."""
     try:
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
     except (OSError, AttributeError):  # not Linux: the parent's deadline still holds
         pass
+    if parent is not None and os.getppid() != parent:
+        os._exit(1)
+
+
+def _bound_self(seconds: float, limit: int) -> None:
+    """Die with the parent, at the deadline, and before allocating more than the memory limit."""
+    faulthandler.disable()  # a crash is reported by the parent, in one line
+    die_with_parent()
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGALRM):
         signal.signal(sig, signal.SIG_DFL)
     signal.alarm(int(seconds) + 2)

@@ -17,6 +17,7 @@ import numpy as np
 from ..analysis import Options, analyze
 from ..guidelines import Situation
 from ..io import read_body
+from ..io.guard import die_with_parent
 from .measures import CRITERIA, worst
 from .runner import for_scenes, judge, verify
 from .scenes import SceneOptions, make_scenes
@@ -71,6 +72,6 @@ def run_sweep(tasks: list[Task], jobs: int = 1, scheduler: str | None = None, ro
         with Client(scheduler) as client:
             return client.gather(client.map(row, tasks, pure=False))
     if jobs > 1:
-        with ProcessPoolExecutor(jobs) as pool:
+        with ProcessPoolExecutor(jobs, initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
             return list(pool.map(row, tasks))
     return [row(t) for t in tasks]

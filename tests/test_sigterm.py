@@ -1,0 +1,96 @@
+"""SIGTERM at random moments of the writing commands (issue 23, item 13): the run ends with 143 (its handler
+while it runs, the signal's default before that: the shell's 143 either way; or it had finished), the target is the old file or a complete new one, no temporary is left, and no process of the
+run outlives it (pool workers and the reading child die with their parent)."""
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import pytest
+
+SAMPLES = Path(__file__).resolve().parent.parent / "sample_bodies"
+RUNS = 20
+
+
+def _complete(kind: str, path: Path) -> bool:
+    """Whether ``path`` is a whole output of its kind."""
+    if kind == "html":
+        return path.read_text(encoding="utf-8", errors="replace").rstrip().endswith("</html>")
+    if kind == "junit":
+        return ET.parse(path).getroot().tag == "testsuites"
+    from ffrf_advisor.io import read_body
+    return read_body(path).nf > 0
+
+
+def _group_alive(pgid: int) -> list[int]:
+    """Processes of the session ``pgid`` still alive (zombies waiting for init count as dead)."""
+    alive = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[2]) == pgid and fields[0] != "Z":
+                alive.append(int(entry.name))
+    return alive
+
+
+COMMANDS = {
+    "convert": (["convert", str(SAMPLES / "beam.ffrf.h5"), "{target}", "--force"], "out.ffrf.h5", "body"),
+    "sample": (["sample", "zoo:block:3", "-o", "{target}", "--force"], "out.ffrf.h5", "body"),
+    "gate": (["gate", str(SAMPLES / "beam.ffrf.h5"), str(SAMPLES / "conrod.ffrf.h5"), "--max-level", "IV",
+              "--speed", "10rad/s", "--jobs", "2", "--junit", "{target}"], "out.xml", "junit"),
+    "report": (["report", str(SAMPLES / "beam.ffrf.h5"), "--speed", "10rad/s", "-o", "{target}", "--force"],
+               "out.html", "html"),
+}
+
+
+def _run(args: list[str], delay: float | None) -> tuple[int, float, bool]:
+    """Run the CLI in its own session, SIGTERM it after ``delay`` s; (exit code, seconds, whether it was still
+    running when signalled); every process of the session must be gone within 30 s of its end."""
+    start = time.monotonic()
+    proc = subprocess.Popen([sys.executable, "-m", "ffrf_advisor", *args], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, start_new_session=True)
+    signalled = False
+    if delay is not None:
+        try:
+            proc.wait(timeout=delay)
+        except subprocess.TimeoutExpired:
+            signalled = proc.poll() is None
+            proc.send_signal(signal.SIGTERM)
+    code = proc.wait(timeout=300)
+    took = time.monotonic() - start
+    for _ in range(1500):
+        if not _group_alive(proc.pid):
+            break
+        time.sleep(0.02)
+    left = _group_alive(proc.pid)
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    assert not left, f"{args[0]}: processes {left} outlived the run"
+    return code, took, signalled
+
+
+@pytest.mark.slow  # about two minutes: 4 x 20 runs of the CLI, each terminated at a random moment
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_sigterm_ends_the_run_with_143_and_an_old_or_complete_target(tmp_path, command):
+    args, name, kind = COMMANDS[command]
+    target = tmp_path / name
+    args = [a.replace("{target}", str(target)) for a in args]
+    code, took, _ = _run(args, None)
+    assert code in (0, 1) and _complete(kind, target)  # gate: 1 when a body is above IV (never)
+    rng = random.Random(f"sigterm-{command}")
+    for i in range(RUNS):
+        before = target.read_bytes()
+        code, _, signalled = _run(args, rng.uniform(0.05, took))
+        ended = (143, -signal.SIGTERM)  # -15: ended by the signal's default action (the shell's 143)
+        assert code in (ended if signalled else (0, 1)), (i, code, signalled)
+        assert target.read_bytes() == before or _complete(kind, target), (i, code)
+        assert not list(tmp_path.glob(".*.tmp")), (i, code, sorted(p.name for p in tmp_path.iterdir()))

@@ -139,7 +139,7 @@ def test_writer_refuses_to_overwrite_and_is_atomic(body_file, block_body, monkey
         raise RuntimeError("disk full")
 
     monkeypatch.setattr(ffrf_h5, "_write_fe", boom)
-    with pytest.raises(RuntimeError):
+    with pytest.raises(FFRFError, match="write: expected to write the file, got RuntimeError: disk full"):
         write_body(block_body, body_file, overwrite=True)
     assert body_file.read_bytes() == before
     assert [p.name for p in body_file.parent.iterdir()] == [body_file.name]

@@ -75,10 +75,13 @@ def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[
     _TEMPORARIES.add(tmp)
     try:
         with terminate_cleanly():
-            yield tmp
-            _fsync(tmp)
-            os.replace(tmp, target)
-            _fsync(target.parent)
+            try:
+                yield tmp
+                _fsync(tmp)
+                os.replace(tmp, target)
+                _fsync(target.parent)
+            except OSError as e:  # a full disk, a quota, the file-size limit
+                raise FFRFError(f"{target}: write: expected to write the file, got {e.strerror or e}") from None
     finally:
         tmp.unlink(missing_ok=True)
         _TEMPORARIES.discard(tmp)

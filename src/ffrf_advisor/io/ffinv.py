@@ -81,17 +81,22 @@ def write_json(body: FlexibleBody, path, overwrite: bool = False, I8_sign: str =
 
 
 def write_h5(body: FlexibleBody, path, overwrite: bool = False, I8_sign: str = "adams") -> None:
+    """The HDF5 library writes in a child (``guard.run_writer``: a failed write makes it crash on cleanup)."""
     with atomic_path(path, overwrite) as tmp:
-        with h5py.File(tmp, "w", libver=("earliest", "v110")) as f:
-            for key, value in document(body, I8_sign).items():
-                if key in DICTS:
-                    g = f.create_group(key)
-                    for k, v in value.items():
-                        g.attrs[k] = v
-                elif isinstance(value, np.ndarray) and value.ndim:
-                    f.create_dataset(key, data=value, track_times=False)
-                else:
-                    f.attrs[key] = value
+        guard.run_writer(path, _write_h5_file, document(body, I8_sign), tmp)
+
+
+def _write_h5_file(doc: dict, tmp) -> None:
+    with h5py.File(tmp, "w", libver=("earliest", "v110")) as f:
+        for key, value in doc.items():
+            if key in DICTS:
+                g = f.create_group(key)
+                for k, v in value.items():
+                    g.attrs[k] = v
+            elif isinstance(value, np.ndarray) and value.ndim:
+                f.create_dataset(key, data=value, track_times=False)
+            else:
+                f.attrs[key] = value
 
 
 # ---------------------------------------------------------------- reading

@@ -6,6 +6,7 @@ a file with cached invariants never touches the mode matrix.
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -63,37 +64,42 @@ def _write_integrals(group: h5py.Group, J: ShapeIntegrals) -> None:
 
 def write(body: FlexibleBody, path: str | os.PathLike, overwrite: bool = False,
           cache_invariants: bool = True) -> None:
-    """Write ``body`` to ``path`` atomically; bit-for-bit reproducible for the same body."""
+    """Write ``body`` to ``path`` atomically; bit-for-bit reproducible for the same body. The HDF5 library
+    writes in a child (``guard.run_writer``): a failed write (a full disk) makes it crash on cleanup."""
     with atomic_path(path, overwrite) as tmp:
-        with h5py.File(tmp, "w", track_order=True, libver=("earliest", "v110")) as f:
-            f.attrs["format"] = FORMAT_NAME
-            f.attrs["version"] = VERSION
-            f.attrs["name"] = body.name
-            f.attrs["units"] = str(body.units)
-            prov = f.create_group("provenance", track_order=True)
-            prov.attrs["source"] = body.provenance.source
-            prov.attrs["mass_matrix"] = body.provenance.mass_matrix
-            prov.attrs["method"] = body.provenance.method
-            prov.attrs["notes"] = "\n".join(body.provenance.notes)
-            if body.provenance.digits is not None:
-                prov.attrs["digits"] = body.provenance.digits
-            prov.attrs["written_by"] = f"ffrf_advisor {__version__}"
-            modes = f.create_group("modes", track_order=True)
-            _dataset(modes, "eigenvalues", body.eigenvalues)
-            stress = None
-            if body.sigma_max is not None:
-                stress = f.create_group("stress", track_order=True)
-                _dataset(stress, "max", body.sigma_max)
-            if body.fe is not None:
-                _write_fe(f, modes, stress, body.fe)
-            if body.static_centrifugal is not None:
-                g = f.create_group("static_centrifugal", track_order=True)
-                _dataset(g, "compliance", body.static_centrifugal.compliance)
-                _dataset(g, "sigma", body.static_centrifugal.sigma)
-            if body.geometric is not None:
-                _dataset(f.create_group("geometric_stiffness", track_order=True), "G", body.geometric)
-            if cache_invariants or body.fe is None:
-                _write_integrals(f, body.integrals)
+        guard.run_writer(path, _write_file, body, tmp, cache_invariants)
+
+
+def _write_file(body: FlexibleBody, tmp: Path, cache_invariants: bool) -> None:
+    with h5py.File(tmp, "w", track_order=True, libver=("earliest", "v110")) as f:
+        f.attrs["format"] = FORMAT_NAME
+        f.attrs["version"] = VERSION
+        f.attrs["name"] = body.name
+        f.attrs["units"] = str(body.units)
+        prov = f.create_group("provenance", track_order=True)
+        prov.attrs["source"] = body.provenance.source
+        prov.attrs["mass_matrix"] = body.provenance.mass_matrix
+        prov.attrs["method"] = body.provenance.method
+        prov.attrs["notes"] = "\n".join(body.provenance.notes)
+        if body.provenance.digits is not None:
+            prov.attrs["digits"] = body.provenance.digits
+        prov.attrs["written_by"] = f"ffrf_advisor {__version__}"
+        modes = f.create_group("modes", track_order=True)
+        _dataset(modes, "eigenvalues", body.eigenvalues)
+        stress = None
+        if body.sigma_max is not None:
+            stress = f.create_group("stress", track_order=True)
+            _dataset(stress, "max", body.sigma_max)
+        if body.fe is not None:
+            _write_fe(f, modes, stress, body.fe)
+        if body.static_centrifugal is not None:
+            g = f.create_group("static_centrifugal", track_order=True)
+            _dataset(g, "compliance", body.static_centrifugal.compliance)
+            _dataset(g, "sigma", body.static_centrifugal.sigma)
+        if body.geometric is not None:
+            _dataset(f.create_group("geometric_stiffness", track_order=True), "G", body.geometric)
+        if cache_invariants or body.fe is None:
+            _write_integrals(f, body.integrals)
 
 
 def _write_fe(f: h5py.File, modes: h5py.Group, stress: h5py.Group | None, fe: ModalFE) -> None:

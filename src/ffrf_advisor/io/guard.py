@@ -26,7 +26,7 @@ import select
 import signal
 import time
 
-from ..errors import BodyFileError
+from ..errors import BodyFileError, FFRFError
 from .limits import human, max_bytes
 
 BASE_SECONDS = 30.0  # a valid file reads in well under this ...
@@ -74,6 +74,54 @@ def run(path, what: str, fn, *args, extra_bytes: int = 0):
     if ok:
         return value
     raise value
+
+
+def run_writer(target, fn, *args) -> None:
+    """``fn(*args)`` (a writer) in a child that ends with ``os._exit``: a library that fails to write (a full
+    disk, the file-size limit) and then crashes while cleaning up ends as one line naming ``target``. The child
+    sends back only the text of its exception; it has no deadline (a large body takes what it takes) and dies
+    with its parent."""
+    if not FORK:
+        return fn(*args)
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # child: never returns into the caller's code
+        os.close(read_end)
+        _writer_child(write_end, fn, args)
+    os.close(write_end)
+    try:
+        data = _collect(read_end, float("inf"))
+        status = os.waitpid(pid, 0)[1]
+        pid = 0
+    finally:
+        os.close(read_end)
+        if pid:
+            _kill(pid)
+    if os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0:
+        return None
+    got = (data.decode("utf-8", "replace") if data else
+           _crash(status, "writing it") + "; a full disk or the file-size limit makes the HDF5 library crash")
+    raise FFRFError(f"{target}: write: expected to write the file, got {' '.join(got.split())[:200]}")
+
+
+def _writer_child(fd: int, fn, args) -> None:
+    code, message = 0, b""
+    try:
+        die_with_parent()
+        faulthandler.disable()
+        devnull = os.open(os.devnull, os.O_WRONLY)  # the libraries' own complaints: the parent says it in one line
+        os.dup2(devnull, 2)
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_DFL)
+        fn(*args)
+    except BaseException as e:  # noqa: BLE001 - the parent reports it in one line
+        code, message = 1, f"{type(e).__name__}: {e}".encode("utf-8", "replace")
+    try:
+        view = memoryview(message)
+        while view:
+            view = view[os.write(fd, view):]
+    finally:
+        os._exit(code)  # no cleanup: a library's destructor may crash after a failed write
 
 
 # What the parent accepts from the child: classes of these packages (no functions) ...
@@ -179,7 +227,7 @@ def _collect(fd: int, deadline: float) -> bytes | None:
     chunks = []
     while True:
         left = deadline - time.monotonic()
-        if left <= 0 or not select.select([fd], [], [], left)[0]:
+        if left <= 0 or not select.select([fd], [], [], None if left == float("inf") else left)[0]:
             return None
         chunk = os.read(fd, 1 << 20)
         if not chunk:
@@ -200,8 +248,13 @@ def _failure(path, seconds: float, status: int | None) -> str:
     if status is None or (os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGALRM):
         return (f"did not finish within {seconds:.0f} s (a valid file of {human(os.path.getsize(path))} reads in "
                 "seconds; damaged metadata can make it loop)")
+    return _crash(status, "reading it")
+
+
+def _crash(status: int, doing: str) -> str:
+    """A child's end without a result, in words."""
     if os.WIFSIGNALED(status):
         sig = os.WTERMSIG(status)
         name = signal.Signals(sig).name if sig in signal.Signals._value2member_map_ else "unknown"
-        return f"crashed reading it (signal {sig}, {name})"
+        return f"crashed {doing} (signal {sig}, {name})"
     return f"stopped without a result (exit status {os.WEXITSTATUS(status)})"

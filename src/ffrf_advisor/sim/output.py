@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import FFRFError
 from ..io.atomic import atomic_path
+from ..io.guard import run_writer
 from .equations import angular_momentum, energy
 from .integrate import Run
 from .model import N_ROT, Model
@@ -49,11 +50,15 @@ def write_trajectory(path: Path, model: Model, run: Run, force: bool = False) ->
                 writer = csv.writer(fh)
                 writer.writerow(names)
                 writer.writerows([[repr(float(x)) for x in row] for row in data])
-        else:
-            with h5py.File(tmp, "w") as fh:
-                ds = fh.create_dataset("trajectory", data=data)
-                ds.attrs["columns"] = ",".join(names)
-                fh.attrs["terms"] = ",".join(model.terms)
+        else:  # the HDF5 library in a child: a failed write makes it crash on cleanup (guard.run_writer)
+            run_writer(path, _write_h5, tmp, data, names, model.terms)
+
+
+def _write_h5(tmp: Path, data: np.ndarray, names: list[str], terms) -> None:
+    with h5py.File(tmp, "w") as fh:
+        ds = fh.create_dataset("trajectory", data=data)
+        ds.attrs["columns"] = ",".join(names)
+        fh.attrs["terms"] = ",".join(terms)
 
 
 def _drift(values: np.ndarray) -> float | None:

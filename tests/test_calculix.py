@@ -184,3 +184,35 @@ def test_prestressed_spinning_frequencies_agree_with_calculix_perturbation_step(
                     subset_by_index=[0, 5])
     assert theirs[0] < 0 and ours[0] < 0
     assert np.allclose(np.sqrt(ours[1:]), np.sqrt(theirs[1:]), rtol=5e-3)
+
+
+def _cuts(data: bytes) -> list[int]:
+    """Byte offsets to cut a .frd at: the start of every line that is no record (block headers, component and
+    end lines, the mode headers, the end marker), every 40th line, and the middle of the last line of
+    every block (a number cut in two)."""
+    starts, at = [], 0
+    for line in data.splitlines(keepends=True):
+        starts.append(at)
+        at += len(line)
+    lines = data.splitlines(keepends=True)
+    cuts = {s for k, (s, line) in enumerate(zip(starts, lines)) if not line.startswith((b" -1", b" -2")) or k % 40 == 0}
+    cuts |= {starts[k - 1] + len(lines[k - 1]) // 2 for k, line in enumerate(lines) if line.startswith(b" -3")}
+    return sorted(c for c in cuts if 0 < c < len(data))
+
+
+@pytest.mark.slow  # half a minute: a few hundred cut files of both kinds
+@pytest.mark.parametrize("job", ["ascii", "binary"])
+def test_a_frd_cut_anywhere_is_refused(jobs, tmp_path, job):
+    """Item 2 of issue 23: a .frd cut after the first mode's block was read as a 1-mode body, a cut number
+    (-1.8676 for -1.86763E+02) was taken as it stood. Every cut is now an error naming the .frd (its end
+    markers) or the .dat (whose eigenvalue count no longer matches)."""
+    data = jobs[job].read_bytes()
+    for suffix in (".dat", ".inp"):
+        shutil.copy(jobs[job].with_suffix(suffix), tmp_path / f"cut{suffix}")
+    cut = tmp_path / "cut.frd"
+    for at in _cuts(data) if job == "ascii" else range(1000, len(data), max(1, len(data) // 150)):
+        cut.write_bytes(data[:at])
+        with pytest.raises(BodyFileError, match=r"cut\.(frd|dat)"):
+            read_body(cut)
+    cut.write_bytes(data)
+    assert read_body(cut).nf == NF

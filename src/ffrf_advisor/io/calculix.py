@@ -88,6 +88,7 @@ class _Frd:
                       f"{count} declared (truncated file)")
 
     def _parse(self) -> None:
+        """The blocks up to the end marker ' 9999', which a complete file has (a cut file does not)."""
         while self._left() > 0:
             line = self._line()
             key = line[:6].strip()
@@ -100,7 +101,14 @@ class _Frd:
             elif line.startswith("  100C"):
                 self._result(line)
             elif key == "9999":
-                break
+                return
+        self.fail("frd", "the end-of-file marker ' 9999' of a complete file", "none (truncated file)")
+
+    def _block_end(self, field: str) -> None:
+        """The ' -3' that ends every ASCII block."""
+        line = self._line() if self._left() > 0 else ""
+        if not line.startswith(" -3"):
+            self.fail(field, "the block's end marker ' -3'", repr(line[:40]) if line else "end of file (truncated)")
 
     def _int(self, text: str, field: str) -> int:
         try:
@@ -118,6 +126,8 @@ class _Frd:
         return count, fmt
 
     def _floats(self, line: str, start: int, n: int, field: str) -> list[float]:
+        if len(line) < start + 12 * n:
+            self.fail(field, f"{n} numbers in E12.5 columns", f"a line cut short ({line[:60]!r})")
         try:
             return [float(line[start + 12 * i:start + 12 * (i + 1)]) for i in range(n)]
         except ValueError:
@@ -139,10 +149,11 @@ class _Frd:
         self._fits(count, 3 + width + 12 * n, field)
         self.budget.take(field, 8 * (n + 1) * count)
         ids, rows = np.zeros(count, np.int64), np.zeros((count, n))
-        k = 0
+        k, ended = 0, False
         while self._left() > 0:
             line = self._line()
             if line.startswith(" -3"):
+                ended = True
                 break
             if line.startswith(" -1"):
                 if k == count:
@@ -150,8 +161,9 @@ class _Frd:
                 ids[k] = self._int(line[3:3 + width], f"{field} node id")
                 rows[k] = self._floats(line, 3 + width, n, field)
                 k += 1
-        if k != count:
-            self.fail(field, f"{count} records as the block header declares", f"{k} (truncated)")
+        if k != count or not ended:
+            self.fail(field, f"{count} records as the block header declares, then ' -3'",
+                      f"{k} (truncated)" if k != count else "no ' -3' (truncated)")
         return ids, rows
 
     def _element_type(self, etype: int) -> tuple[str, list[int]]:
@@ -181,7 +193,7 @@ class _Frd:
                     nodes += [self._int(t, "3C element nodes") for t in line[3:].split()]
             self.elements.setdefault(cell_type, []).append([nodes[k] for k in order])
         if fmt < 2:
-            self._line()  # -3
+            self._block_end("3C")
 
     def _result(self, header: str) -> None:
         try:
@@ -328,7 +340,10 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     stem = Path(path).with_suffix("")
     lam = _dat_eigenvalues(stem.with_suffix(".dat"))
     source = "eigenvalues from .dat (7 digits)"
-    if lam is None or len(lam) < len(modes):
+    if lam is not None and len(lam) != max(modes):
+        raise BodyFileError(stem.with_suffix(".dat"), "eigenvalues", f"as many as the modes of {Path(path).name} "
+                            f"({max(modes)})", f"{len(lam)} (a cut .frd or another run's .dat)")
+    if lam is None:
         lam = (2 * np.pi * np.array([frd.frequencies[m] for m in modes])) ** 2
         source = "eigenvalues from .frd frequencies (6 digits)"
     lam = lam[np.array(modes) - 1]

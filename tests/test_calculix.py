@@ -24,8 +24,8 @@ NF = 6
 MESH = box_mesh([200.0, 40.0, 20.0], [5, 2, 1], "hexahedron20")
 
 
-def _run(directory: Path, job: str, **deck) -> Path:
-    write_deck(MESH, STEEL, NF, directory / f"{job}.inp", **deck)
+def _run(directory: Path, job: str, mesh=MESH, **deck) -> Path:
+    write_deck(mesh, STEEL, NF, directory / f"{job}.inp", **deck)
     done = subprocess.run(["ccx", job], cwd=directory, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0 and "Job finished" in done.stdout, done.stdout[-2000:]
     return directory / f"{job}.frd"
@@ -216,3 +216,41 @@ def test_a_frd_cut_anywhere_is_refused(jobs, tmp_path, job):
             read_body(cut)
     cut.write_bytes(data)
     assert read_body(cut).nf == NF
+
+
+def test_a_curved_ring_reads_with_the_mass_calculix_used(tmp_path):
+    """Item 16 of issue 23: a ring of curved 20-node hexahedra read from an ASCII .frd failed its checks with
+    the assembled mass (normalisation 1.6e-5) and passed with CalculiX's .mas. The cause is the .frd's 6-digit
+    node coordinates, not the quadrature: assembled from the deck's full-precision nodes with CalculiX's own
+    3x3x3 rule, the mass equals the .mas to its 14 printed digits (exact integration of the curved elements
+    would differ from it by 7e-4 on this mesh), and the checks pass."""
+    from ffrf_advisor.checks import run_checks
+    from ffrf_advisor.fe.mesh import cylindrical
+
+    box = box_mesh([10.0, 2 * np.pi, 20.0], [1, 12, 1], "hexahedron20", centred=False)
+    ring = box.transformed(np.eye(3), np.array([95.0, 0.0, -10.0])).mapped(cylindrical).welded(1e-7)
+    frd = _run(tmp_path, "ring", ring)
+    assembled = read_body(frd, load_fe=True)
+    assert any("deck's *NODE" in n for n in assembled.provenance.notes)
+    assert all(c.passed for c in run_checks(assembled)), [(c.name, c.value) for c in run_checks(assembled)]
+    (tmp_path / "stored").mkdir()
+    write_deck(ring, STEEL, NF, tmp_path / "stored" / "ring.inp", matrix_storage=True)
+    subprocess.run(["ccx", "ring"], cwd=tmp_path / "stored", capture_output=True, timeout=300)
+    for suffix in (".mas", ".dof"):
+        os.replace(tmp_path / "stored" / f"ring{suffix}", tmp_path / f"ring{suffix}")
+    stored = read_body(frd, load_fe=True)
+    assert any(".mas" in n for n in stored.provenance.notes)
+    Ms, Mc = assembled.fe.Ms.toarray(), stored.fe.Ms.toarray()
+    assert np.abs(Ms - Mc).max() <= 1e-12 * np.abs(Mc).max()
+
+
+@pytest.mark.parametrize("density", ["0", "-7.85e-9", "nan"])
+def test_a_deck_density_that_is_not_positive_is_one_line(jobs, tmp_path, density):
+    """Item 9 of issue 23: *DENSITY 0 or negative gave 7-11 lines of RuntimeWarning, then a LinAlgError."""
+    shutil.copy(jobs["ascii"], tmp_path / "d.frd")
+    deck = jobs["ascii"].with_suffix(".inp").read_text().splitlines()
+    at = next(i for i, line in enumerate(deck) if line.upper().startswith("*DENSITY"))
+    deck[at + 1] = density
+    (tmp_path / "d.inp").write_text("\n".join(deck) + "\n")
+    with pytest.raises(BodyFileError, match=r"d\.inp: \*DENSITY: expected a finite positive density"):
+        read_body(tmp_path / "d.frd")

@@ -279,7 +279,46 @@ def _deck_density(frd: _Frd, path: Path) -> float:
     values = _deck_card(path, "*DENSITY")
     if not values:
         frd.fail(f"{path.name}: *DENSITY", "a density line after *DENSITY")
+    if not (np.isfinite(values[0]) and values[0] > 0):
+        raise BodyFileError(path, "*DENSITY", "a finite positive density", f"{values[0]!r}")
     return values[0]
+
+
+def _deck_nodes(path: Path) -> dict[int, tuple[float, float, float]]:
+    """Node id -> coordinates of the deck's *NODE cards (full precision; the ASCII .frd has 6 digits), empty
+    without a deck or when its node lines do not parse."""
+    if not path.is_file():
+        return {}
+    nodes, inside = {}, False
+    for line in _text_lines(path):
+        if line.startswith("**"):  # a comment
+            continue
+        if line.startswith("*"):
+            inside = line.split(",")[0].strip().upper() == "*NODE"
+            continue
+        if inside and line.strip():
+            try:
+                values = [float(x) for x in line.split(",")[:4]]
+            except ValueError:
+                return {}
+            if len(values) == 4:
+                nodes[int(values[0])] = tuple(values[1:])
+    return nodes
+
+
+def _precise_points(frd: _Frd, path: Path) -> tuple[np.ndarray, str | None]:
+    """The .frd's node coordinates, or the deck's where it defines every node and agrees with the .frd to the
+    .frd's precision (else an error naming the deck); a note saying which."""
+    deck = _deck_nodes(path)
+    if not deck or any(int(n) not in deck for n in frd.ids):
+        return frd.nodes, None
+    points = np.array([deck[int(n)] for n in frd.ids])
+    size = float(np.ptp(frd.nodes, axis=0).max()) or 1.0
+    off = float(np.abs(points - frd.nodes).max())
+    if off > 10.0 ** (1 - ASCII_DIGITS) * size:
+        raise BodyFileError(path, "*NODE", f"the nodes of {frd.path.name} (within its precision)",
+                            f"coordinates {off:.3g} away (another model's deck)")
+    return points, "node coordinates from the deck's *NODE (full precision)"
 
 
 def _deck_material(path: Path) -> Material | None:
@@ -333,11 +372,12 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
         cells = {t: np.array([[index[n] for n in e] for e in es], np.int64) for t, es in frd.elements.items()}
     except KeyError as e:
         frd.fail("3C", "element nodes defined in the node block", f"unknown node {e}")
-    mesh = Mesh(frd.nodes, cells)
+    stem = Path(path).with_suffix("")
+    points, from_deck = _precise_points(frd, stem.with_suffix(".inp"))
+    mesh = Mesh(points, cells)
     modes = sorted(m for m, name in frd.results if name == "DISP")
     if not modes:
         frd.fail("DISP", "mode shapes (*NODE FILE or *NODE OUTPUT with U)", "none")
-    stem = Path(path).with_suffix("")
     lam = _dat_eigenvalues(stem.with_suffix(".dat"))
     source = "eigenvalues from .dat (7 digits)"
     if lam is not None and len(lam) != max(modes):
@@ -354,6 +394,7 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
                            for m in modes], axis=-1)
     rigid = np.abs(lam) < RIGID_TOL * np.abs(lam).max()
     notes = [f"CalculiX {Path(path).name}: {len(modes)} modes, {int(rigid.sum())} rigid dropped; {source}"]
+    notes += [from_deck] if from_deck else []
     if rigid.sum() != N_RIGID:
         notes.append(f"warning: {int(rigid.sum())} rigid modes instead of six: the body is "
                      + ("constrained" if rigid.sum() < N_RIGID else "not connected (a mechanism)"))
@@ -385,7 +426,7 @@ def write_deck(mesh: Mesh, material: Material, n_modes: int, path, binary: bool 
     """A free-free *FREQUENCY deck of ``mesh`` (8/20-node hexahedra; VTK order is the deck order)."""
     ccx_type = {"hexahedron": "C3D8", "hexahedron20": "C3D20"}
     out = ["*HEADING", "ffrf_advisor free-free modal deck", "*NODE, NSET=NALL"]
-    out += [f"{i + 1}, " + ", ".join(repr(float(v)) for v in p) for i, p in enumerate(mesh.points)]
+    out += [f"{i + 1}, " + ", ".join(f"{v:.12e}" for v in p) for i, p in enumerate(mesh.points)]  # fields <= 20
     number = 1
     for cell_type, conn in mesh.cells.items():
         if cell_type not in ccx_type:

@@ -70,6 +70,15 @@ def test_info_and_convert_take_eigenvalues_and_density_for_meshes(tmp_path, beam
     assert np.abs(read_body(out).W2 - beam.W2).max() < 1e-12
     wrong = runner.invoke(app, ["info", str(SAMPLES / "beam.ffrf.h5"), "--density", "1"])
     assert wrong.exit_code == 2 and "meshio meshes only" in wrong.output
+    simulated = runner.invoke(app, ["simulate", str(path), *opts, "--t-end", "1e-4", "--json"])
+    assert simulated.exit_code == 0, simulated.output  # issue 23, item 12: simulate and verify take them too
+    assert runner.invoke(app, ["simulate", str(path), "--t-end", "1e-4"]).exit_code == 2
+
+
+def test_sample_refuses_a_bad_target_before_building(tmp_path):
+    """Issue 23, item 12: a directory as target was refused only after the FE build (minutes)."""
+    result = runner.invoke(app, ["sample", "carbody", "-o", str(tmp_path)])
+    assert result.exit_code == 2 and "expected a regular file to write, got a directory" in result.output
 
 
 def test_convert_with_young_and_poisson_computes_the_centrifugal_response(tmp_path, beam):

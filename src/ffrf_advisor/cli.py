@@ -23,7 +23,7 @@ from .errors import FFRFError
 from .gate import check_junit_target, run_gate, write_junit
 from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, operating_point, parse_speed
 from .io import check_reader_options, format_of, formats, limits, read_body, write_body
-from .io.atomic import atomic_path, not_an_input, one_run
+from .io.atomic import atomic_path, check_target, not_an_input, one_run
 from .report.compare import comparison, comparison_table
 from .report.console import (analysis_summary, body_summary, progress_bar, shown, simulation_report,
                              verification_report)
@@ -444,9 +444,8 @@ def sample(name: str = typer.Argument(..., help=f"One of: {', '.join(SAMPLES)}."
            refine: int = typer.Option(1, "--refine", help="Element size divided by this (mesh convergence)."),
            force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT.")):
     """Build a sample body from its recipe (docs/samples.md): FE mesh, free-free modes, stress."""
-    if output.exists() and not force:
-        raise FFRFError(f"{output}: exists; refusing to overwrite (use --force)")
-    format_of(output)  # an unknown suffix fails before the minutes of FE work
+    check_target(output, force)  # a bad target or an unknown suffix fails before the minutes of FE work
+    format_of(output)
     start = time.perf_counter()
     body = make_sample(name, refine, report=lambda step: err.print(
         f"{name}: {step} ({time.perf_counter() - start:.0f} s so far)", highlight=False))
@@ -576,11 +575,12 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
              force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT."),
              as_json: SimulateJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
              widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
-             threshold: Threshold = None, config: Config = None):
+             threshold: Threshold = None, config: Config = None, eigenvalues: Eigenvalues = None,
+             density: Density = None):
     """Simulate the free body with a term set (theory sections 5, 10); exit 3 when the integration fails."""
     if output is not None:
         check_output(output, force)
-    b = _read(body)
+    b = _read(body, eigenvalues, density)
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, threshold=threshold, config=config)
     if output is not None:
         not_an_input(output)  # before the integration, not after it
@@ -624,7 +624,7 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
                    threshold: Threshold = None, config: Config = None, rules: Rules = None,
                    excitation: Excitation = None, spin_axis: SpinAxis = None, deflection_cap: DeflCap = None,
-                   q_max: QMax = None):
+                   q_max: QMax = None, eigenvalues: Eigenvalues = None, density: Density = None):
     """Verify the advice by simulation: scenes, term sets, errors, cost, stability, Campbell, figures."""
     from .verify.scenes import SceneOptions
     from .report.verify_json import study_json
@@ -634,7 +634,7 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
                             threshold=threshold, config=config, spin_axis=spin_axis, tolerance=tolerance, rules=rules,
                             excitation=excitation)
-    b = _read(body)
+    b = _read(body, eigenvalues, density)
     result = run_analysis(b, options)
     h = None if step is None else simulation_setup(b, 1.0, step, None, integrator).step
     st = run_study(result, names, tolerance, integrator, h, rtol, repeats, output, SceneOptions(axis=axis),

@@ -55,9 +55,10 @@ def refuse_inputs(target, inputs, message: str) -> None:
         raise FFRFError(f"{target}: {message}")
 
 
-@contextmanager
-def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
-    """Yield a temporary path; on success it replaces ``target``, on failure it is removed."""
+def check_target(target: str | os.PathLike, overwrite: bool = False) -> None:
+    """FFRFError unless ``target`` may be written: no input of this run, a regular file or none (no link,
+    directory or device), absent unless ``overwrite``, in an existing directory. Commands that work long before
+    they write call it first."""
     target = Path(target)
     not_an_input(target)
     if target.is_symlink() or (target.exists() and not target.is_file()):
@@ -67,6 +68,13 @@ def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[
         raise FFRFError(f"{target}: exists; refusing to overwrite (use --force)")
     if not target.parent.is_dir():
         raise FFRFError(f"{target}: directory {target.parent} does not exist")
+
+
+@contextmanager
+def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[Path]:
+    """Yield a temporary path; on success it replaces ``target``, on failure it is removed."""
+    target = Path(target)
+    check_target(target, overwrite)
     _sweep_stale(target)
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=target.parent)
     os.close(fd)

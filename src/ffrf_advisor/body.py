@@ -256,6 +256,14 @@ class FlexibleBody:
         body = replace(self, integrals=shifted.rotated(R), fe=fe, static_centrifugal=static, geometric=geo)
         return body, c, R
 
+    def moved_to_principal_frame(self) -> "FlexibleBody":
+        """``in_principal_frame``'s body, its provenance noting where the frame moved and how it turned."""
+        body, c, R = self.in_principal_frame()
+        note = (f"transformed from the file's frame: origin moved to the CoM at "
+                f"[{', '.join(f'{x:.6g}' for x in c)}] {self.units.length}, axes turned to the principal axes "
+                f"(rotation rows {'; '.join(' '.join(f'{x:.6f}' for x in row) for row in R.T)})")
+        return replace(body, provenance=body.provenance.with_note(note))
+
     def first_modes(self, nf: int) -> "FlexibleBody":
         """The body with its first ``nf`` modes only (every quantity per mode truncated alike)."""
         if not 1 <= nf <= self.nf:

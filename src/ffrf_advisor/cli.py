@@ -466,14 +466,18 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
                                                                         "with --poisson the static centrifugal "
                                                                         "response and geometric stiffness are "
                                                                         "computed (theory 9, 11)."),
-            poisson: Optional[float] = typer.Option(None, "--poisson", help="meshio meshes: Poisson's ratio.")):
+            poisson: Optional[float] = typer.Option(None, "--poisson", help="meshio meshes: Poisson's ratio."),
+            transform: bool = typer.Option(False, "--transform", help="Move the frame to the centre of mass and "
+                                                                      "the principal axes (theory 4), as the "
+                                                                      "CalculiX and meshio readers do.")):
     """Convert a body between formats (see `ffrf-advisor formats`); refuses to overwrite without --force."""
-    if target.exists() and not force:
-        raise FFRFError(f"{target}: exists; refusing to overwrite (use --force)")
+    check_target(target, force)
     fmt = format_of(target, to_format)
     if fmt.write is None:
         raise FFRFError(f"{target}: format {fmt.name} can be read but not written")
     body = _read(source, eigenvalues, density, from_format, young=young, poisson=poisson)
+    if transform:
+        body = body.moved_to_principal_frame()
     write_body(body, target, fmt.name, overwrite=force)
     out.print(f"wrote {shown(target)} ({fmt.name}): {shown(body.name)}, {body.nf} modes"
               + ("" if body.fe is not None else ", invariants only"))

@@ -255,11 +255,6 @@ def _invariants(d: _Doc, nf: int) -> dict[str, np.ndarray]:
     return inv
 
 
-def _frame_note(c: np.ndarray, R: np.ndarray, units: Units) -> str:
-    return (f"transformed from the file's frame: origin moved to the CoM at "
-            f"[{', '.join(f'{x:.6g}' for x in c)}] {units.length}, axes turned to the principal axes "
-            f"(rotation rows {'; '.join(' '.join(f'{x:.6f}' for x in row) for row in R.T)})")
-
 
 def _provenance(d: _Doc, path, inv: dict) -> Provenance:
     """The file's provenance block (optional), plus which of I5 and I9 it carries."""
@@ -300,9 +295,7 @@ def body_from_document(path, doc: dict) -> FlexibleBody:
                         eigenvalues=_eigenvalues(d, nf), units=units, sigma_max=sigma,
                         provenance=_provenance(d, path, inv))
     if (origin, axes) != ("cm", "principal"):
-        body, c, R = body.in_principal_frame()
-        body = replace(body, provenance=replace(body.provenance,
-                                                notes=body.provenance.notes + (_frame_note(c, R, units),)))
+        body = body.moved_to_principal_frame()
     return body
 
 

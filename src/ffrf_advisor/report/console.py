@@ -71,7 +71,10 @@ def body_summary(console: Console, body: FlexibleBody, checks: list[Check]) -> N
     console.print(checks_table(checks))
     failed = [c for c in checks if not c.passed]
     if failed:
-        fix = ("the stiffness is stored: the basis can be transformed (theory section 4)"
+        frame = {"com_offset", "principal_axes"}
+        fix = ("fix: `ffrf-advisor convert BODY OUT --transform` moves the frame to the CoM and the principal axes "
+               "(theory section 4)" if {c.name for c in failed} <= frame
+               else "the stiffness is stored: the basis can be transformed (theory section 4)"
                if body.fe is not None and body.fe.K is not None
                else "no stiffness matrix: results carry the caveat that these assumptions fail")
         console.print(f"[yellow]warning[/yellow]: {len(failed)} assumption(s) fail: "

@@ -210,3 +210,15 @@ def test_the_parent_accepts_only_the_types_of_the_body_model_from_the_child(tmp_
 def _foreign_error():
     import struct
     raise struct.error("a foreign library's exception")
+
+
+def test_a_child_out_of_memory_names_the_limit(tmp_path, monkeypatch):
+    """Issue 23, item 8: a body whose copy for the parent passed the limit failed with 'RuntimeError:
+    FlexibleBody:', naming neither memory nor the limit."""
+    def exhausted(*args):
+        raise MemoryError("needed more than the memory limit of 470 MiB to send the body read to the parent")
+
+    monkeypatch.setattr(ffrf_h5, "_read_file", exhausted)
+    result = runner.invoke(app, ["--max-memory", "470M", "info", str(BEAM)])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert "memory: expected a body that fits the memory limit of 470 MiB" in result.output

@@ -74,6 +74,10 @@ def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> Fle
         body = f.read(path, **options)
     except FFRFError:
         raise
+    except MemoryError as e:  # the reading child's address-space limit (io.guard)
+        raise BodyFileError(path, "memory", f"a body that fits the memory limit of "
+                            f"{limits.human(limits.max_bytes())} (--max-memory or {limits.ENV})",
+                            str(e) or "more") from None
     except UNFORESEEN as e:
         raise BodyFileError(path, "file", f"a readable {f.name} file",
                             f"{type(e).__name__}: {str(e)[:160]}") from None

@@ -170,6 +170,9 @@ def _child(fd: int, seconds: float, limit: int, fn, args) -> None:
             message = (False, _transportable(e))
         try:
             data = _dumps(message)
+        except MemoryError:  # the body was read, but its copy for the parent passes the limit
+            data = _dumps((False, MemoryError(f"needed more than the memory limit of {human(limit)} to send the "
+                                              "body read to the parent (a copy of it)")))
         except Exception as e:  # noqa: BLE001 - an exception that does not pickle travels as its text
             data = _dumps((False, RuntimeError(f"{type(message[1]).__name__}: {e}")))
         view = memoryview(data)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from pathlib import Path
 
 import pytest
@@ -29,8 +30,17 @@ def _strict(text: str) -> dict:
     return json.loads(text, parse_constant=bad)
 
 
+def _invoke(args: list[str]):
+    """The CLI in-process; a Python warning on the way (numpy, scipy) fails the test: none may reach the user."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = runner.invoke(app, args)
+    assert not caught, (args, [str(w.message) for w in caught])
+    return result
+
+
 def _outcome(args: list[str]) -> str:
-    result = runner.invoke(app, ["analyze", str(BEAM), "--rules", "thresholds", *args, "--json"])
+    result = _invoke(["analyze", str(BEAM), "--rules", "thresholds", *args, "--json"])
     text = result.output
     assert "Traceback" not in text and "Warning" not in text, (args, text[-2000:])
     if result.exit_code == 0:
@@ -76,3 +86,25 @@ def test_any_float_for_any_numeric_option_is_a_valid_result_or_one_line(option, 
     else:
         args = [option, text]
     _outcome(args + (["--speed", "30rad/s"] if option != "--speed" else []))
+
+
+SIMULATE = ("--damping", "--t-end", "--step", "--rtol", "--atol", "--output-step", "--omega0", "--q0")
+
+
+@pytest.mark.slow  # a minute: short simulations of the beam
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(option=st.sampled_from(SIMULATE), value=FLOATS, integrator=st.sampled_from(["dop853", "rk4"]))
+def test_any_float_for_any_numeric_simulate_option_is_a_result_or_one_line(option, value, integrator):
+    """simulate: a valid run (JSON without NaN), a one-line error (exit 2), or a failed integration said in one
+    line (exit 3); never a hang (the work is bounded), a traceback or a numpy warning."""
+    text = repr(value) if math.isfinite(value) else str(value)
+    text = ",".join([text] * (3 if option == "--omega0" else 16 if option == "--q0" else 1))
+    base = {"--t-end": "2e-4", "--step": "1e-6"}
+    args = [option, text] + [a for k, v in base.items() if k != option for a in (k, v)]
+    result = _invoke(["simulate", str(BEAM), "--integrator", integrator, *args, "--json"])
+    out = result.output
+    assert "Traceback" not in out and "Warning" not in out, (args, out[-2000:])
+    if result.exit_code == 0:
+        _strict(out)
+    else:
+        assert result.exit_code in (2, 3) and len(out.strip().splitlines()) == 1, (args, result.exit_code, out[-2000:])

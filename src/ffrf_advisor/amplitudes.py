@@ -86,16 +86,16 @@ def small_deformation_warnings(ratio: np.ndarray | None, governs: tuple[str, ...
             f"fix: {fix}"]
 
 
-def _check_size(body: FlexibleBody, q: np.ndarray, deflection: np.ndarray | None) -> None:
+def check_size(body: FlexibleBody, q: np.ndarray, option: str) -> None:
     """Given amplitudes deflect the body at most MAX_DEFLECTION times its size (theory 6; beyond, the numbers
     overflow long before they mean anything): the mesh's deflection, else the rms deflection of a
     mass-normalised mode, ``q / sqrt(m)``."""
+    deflection = body.fe.max_deflection() if body.fe is not None else 1 / np.sqrt(body.mass)
     with np.errstate(over="ignore"):  # an overflow is a ratio of inf, refused below
-        moved = deflection * q if deflection is not None else q / np.sqrt(body.mass)
-        ratio = moved / body.largest_dimension()
-    p = int(np.argmax(ratio))
+        ratio = deflection * np.abs(np.asarray(q, float)) / body.largest_dimension()
+    p = int(np.argmax(np.where(np.isnan(ratio), np.inf, ratio)))
     if not ratio[p] <= MAX_DEFLECTION:
-        raise FFRFError(f"--q-max: mode {p + 1} at {q[p]:.3g} deflects the body by {ratio[p]:.3g} times its largest "
+        raise FFRFError(f"{option}: mode {p + 1} at {q[p]:.3g} deflects the body by {ratio[p]:.3g} times its largest "
                         f"dimension; expected at most {MAX_DEFLECTION:g} (the FFRF needs small deformations)")
 
 
@@ -108,7 +108,7 @@ def q_max(body: FlexibleBody, opts: AmplitudeOptions = AmplitudeOptions()) -> Am
         q = np.asarray(opts.q_max, float)
         if q.shape != (body.nf,) or not np.all(np.isfinite(q)) or np.any(q < 0):
             raise FFRFError(f"q_max: expected {body.nf} non-negative numbers (one per mode), got {len(q)}")
-        _check_size(body, q, deflection)
+        check_size(body, q, "--q-max")
         governs = ("user",) * body.nf
         warnings: list[str] = []
     else:

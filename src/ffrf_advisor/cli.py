@@ -35,7 +35,7 @@ from .samples import SAMPLES, sample as make_sample
 from .sim.integrate import FIXED, INTEGRATORS, integrate
 from .sim.model import build_model, initial_state
 from .sim.output import check_output, summary, write_trajectory
-from .sim.setup import check_tolerances, q_max_of, simulation_setup
+from .sim.setup import check_initial_state, check_tolerances, q_max_of, simulation_setup
 from .verify.checks import SCENES, check_verify_options
 from .solver_settings import SOLVERS, adams_settings
 from .terms import parse_terms
@@ -594,8 +594,9 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     if integrator not in FIXED:
         check_tolerances(rtol, atol)
     start = q_max_of(b, options.amplitudes) if q0 is not None and q0.strip() == "qmax" else _numbers("--q0", q0)
-    y0 = initial_state(model, np.array(_numbers("--omega0", omega0)) * setup.per_second,
-                       () if start is None else start, _numbers("--qd0", qd0) or ())
+    w0, v0 = _numbers("--omega0", omega0), _numbers("--qd0", qd0)
+    check_initial_state(b, w0, start, None if v0 is None else np.asarray(v0) * setup.per_second)
+    y0 = initial_state(model, np.array(w0) * setup.per_second, () if start is None else start, v0 or ())
     with progress_bar(err) as progress:
         run = integrate(model, y0, setup.t_end, integrator, setup.step, rtol, atol, setup.output_step,
                         progress=progress)

@@ -62,17 +62,36 @@ class Run:
     step: float | None = None
 
 
-class Rhs:
-    """The compiled right-hand side of a model with its loads, callable as f(t, y); counts evaluations."""
+class OverBudget(Exception):
+    """An adaptive integration needed more right-hand sides than its work budget (``work_budget``)."""
 
-    def __init__(self, model: Model, loads: Loads = Loads()):
+
+EVALUATIONS_PER_PERIOD = 1000  # right-hand sides an adaptive method may spend per period (DOP853 at 1e-12: ~600)
+BASE_EVALUATIONS = 100_000
+
+
+def work_budget(model: Model, y0: np.ndarray, t_end: float) -> int:
+    """Right-hand sides an adaptive run may take: EVALUATIONS_PER_PERIOD per period of the fastest motion
+    (the highest mode, or the initial spin), plus BASE_EVALUATIONS; past it the run fails, said so."""
+    f_fast = max(np.sqrt(np.max(np.abs(model.eigenvalues), initial=0.0)), np.linalg.norm(y0[4:7])) / (2 * np.pi)
+    return int(min(BASE_EVALUATIONS + EVALUATIONS_PER_PERIOD * t_end * f_fast, 1e12))
+
+
+class Rhs:
+    """The compiled right-hand side of a model with its loads, callable as f(t, y); counts evaluations and
+    raises OverBudget past ``budget`` of them."""
+
+    def __init__(self, model: Model, loads: Loads = Loads(), budget: float = np.inf):
         from . import kernels  # lazy: the compiler loads only when a simulation runs
-        self.k, self.m, self.loads, self.nfev = kernels, model, loads, 0
+        self.k, self.m, self.loads, self.nfev, self.budget = kernels, model, loads, 0, budget
         self.zero3, self.zf, self.work = np.zeros(3), np.zeros(model.nf), kernels.workspace(model.nf)
 
     def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
         m, L = self.m, self.loads
         self.nfev += 1
+        if self.nfev > self.budget:
+            raise OverBudget(f"work budget of {self.budget} right-hand sides spent at t = {t:.6g} (stiff, or "
+                             "blowing up)")
         tau = self.zero3 if L.torque is None else np.asarray(L.torque(t), float)
         fext = self.zf if L.modal is None else np.asarray(L.modal(t), float)
         pres = L.prescribed is not None
@@ -190,11 +209,14 @@ def _midpoint_step(f, t, y, h):
 def _adaptive(model, y0, t_end, method, rtol, atol, output_step, loads) -> Run:
     """scipy's solve_ivp with dense output sampled on the output grid; steps are the accepted ones."""
     from scipy.integrate import solve_ivp  # 0.2 s to import: only when an adaptive run needs it
-    f = Rhs(model, loads)
+    f = Rhs(model, loads, work_budget(model, y0, t_end))
     start = time.perf_counter()
-    with np.errstate(all="ignore"):
-        sol = solve_ivp(f, (0.0, t_end), y0, method=SCIPY_NAMES[method],
-                        dense_output=True, rtol=rtol, atol=atol)
+    try:
+        with np.errstate(all="ignore"):
+            sol = solve_ivp(f, (0.0, t_end), y0, method=SCIPY_NAMES[method],
+                            dense_output=True, rtol=rtol, atol=atol)
+    except OverBudget as e:
+        return Run(method, np.zeros(1), y0[None, :], f.nfev, 0, time.perf_counter() - start, True, 0.0, str(e))
     wall = time.perf_counter() - start
     t_last = float(sol.t[-1])
     t = np.linspace(0.0, t_end, max(2, int(round(t_end / output_step)) + 1))

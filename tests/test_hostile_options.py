@@ -73,7 +73,7 @@ def test_usage_errors_are_one_line_with_exit_2(args):
 
 
 @pytest.mark.slow  # a minute: a few hundred analyses of the beam
-@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(option=st.sampled_from(OPTIONS + tuple(f"--threshold {name}" for name in THRESHOLDS)), value=FLOATS)
 def test_any_float_for_any_numeric_option_is_a_valid_result_or_one_line(option, value):
     text = repr(value) if math.isfinite(value) else str(value)
@@ -92,7 +92,7 @@ SIMULATE = ("--damping", "--t-end", "--step", "--rtol", "--atol", "--output-step
 
 
 @pytest.mark.slow  # a minute: short simulations of the beam
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(option=st.sampled_from(SIMULATE), value=FLOATS, integrator=st.sampled_from(["dop853", "rk4"]))
 def test_any_float_for_any_numeric_simulate_option_is_a_result_or_one_line(option, value, integrator):
     """simulate: a valid run (JSON without NaN), a one-line error (exit 2), or a failed integration said in one

@@ -89,8 +89,10 @@ def test_sigterm_ends_the_run_with_143_and_an_old_or_complete_target(tmp_path, c
     rng = random.Random(f"sigterm-{command}")
     for i in range(RUNS):
         before = target.read_bytes()
-        code, _, signalled = _run(args, rng.uniform(0.05, took))
+        delay = rng.uniform(0.05, took)
+        code, _, signalled = _run(args, delay)
         ended = (143, -signal.SIGTERM)  # -15: ended by the signal's default action (the shell's 143)
-        assert code in (ended if signalled else (0, 1)), (i, code, signalled)
+        finishing = delay > 0.8 * took  # a signal during the process's own exit may find nothing left to stop
+        assert code in (ended + (0, 1) if finishing or not signalled else ended), (i, code, signalled, delay, took)
         assert target.read_bytes() == before or _complete(kind, target), (i, code)
         assert not list(tmp_path.glob(".*.tmp")), (i, code, sorted(p.name for p in tmp_path.iterdir()))

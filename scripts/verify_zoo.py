@@ -54,11 +54,11 @@ def zoo_bodies(cache: Path) -> list[tuple[str, Path]]:
     return out
 
 
-def tasks(bodies: list[tuple[str, Path]]) -> list[Task]:
+def tasks(bodies: list[tuple[str, Path]], fractions=FRACTIONS) -> list[Task]:
     out = []
     for _, path in bodies:
         s_crit = float(np.min(softening_speeds(read_body(path))))
-        out += [Task(str(path), f * s_crit, f, ("torque-pulse",) if f == 0 else SCENES, TOLERANCE) for f in FRACTIONS]
+        out += [Task(str(path), f * s_crit, f, ("torque-pulse",) if f == 0 else SCENES, TOLERANCE) for f in fractions]
     return out
 
 
@@ -66,7 +66,8 @@ def row_of(task: Task) -> dict:
     """The verification row with the advice's predictions and its cost against the full set's."""
     row = run_task(task)
     body = read_body(task.body)
-    a = analyze(body, Options(situation=Situation(w_op=row["advice_speed_rad_s"], tolerance=task.tolerance)))
+    a = analyze(body, Options(situation=Situation(w_op=row["advice_speed_rad_s"], tolerance=task.tolerance,
+                                                  excitation=row["advice_excitation"])))
     full = rhs_cost(reference_terms(body), body.nf)
     row["cost_ratio"] = rhs_cost(row["advised_terms"], body.nf) / full
     row["predicted"] = {c.label: {"label": c.label, "terms": list(c.terms), "errors": c.errors, "axes": c.axes}
@@ -162,25 +163,40 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--scheduler", default=None)
     parser.add_argument("--cache", type=Path, default=ROOT / "build" / "zoo")
-    parser.add_argument("--families", nargs="*", default=None, help="only these zoo families")
+    parser.add_argument("--families", nargs="*", default=None, help="only these zoo families ('sample': the samples)")
     parser.add_argument("--no-samples", action="store_true", help="the zoo bodies only")
+    parser.add_argument("--fractions", nargs="*", type=float, default=FRACTIONS, help="only these shares of s_crit")
+    parser.add_argument("--merge", action="store_true", help="replace only the rows run in docs/verification.json "
+                                                              "and keep the others")
     parser.add_argument("--from-json", action="store_true", help="remake docs/verification.md from the rows of "
                                                                    "docs/verification.json without running them")
     args = parser.parse_args()
+    saved = ROOT / "docs" / "verification.json"
     if args.from_json:
-        data = json.loads((ROOT / "docs" / "verification.json").read_text())
+        data = json.loads(saved.read_text())
         return write_docs(data["rows"], data["wall_s"], data["jobs"])
     start = time.perf_counter()
-    bodies = [b for b in zoo_bodies(args.cache) if args.families is None or b[0] in args.families]
-    if not args.no_samples:
+    chosen = (lambda family: args.families is None or family in args.families)
+    bodies = [b for b in zoo_bodies(args.cache) if chosen(b[0])]
+    if not args.no_samples and chosen("sample"):
         bodies += [("sample", ROOT / "sample_bodies" / f"{name}.ffrf.h5") for name in SAMPLES]
     family_of = {str(path): family for family, path in bodies}
-    work = tasks(bodies)
+    work = tasks(bodies, tuple(args.fractions))
     rows = [dict(r, family=family_of[t.body]) for r, t in zip(run_sweep(work, args.jobs, args.scheduler, row_of), work)]
     wall = time.perf_counter() - start
-    (ROOT / "docs" / "verification.json").write_text(json.dumps({"rows": rows, "wall_s": wall, "jobs": args.jobs},
-                                                                indent=1) + "\n")
+    if args.merge:
+        rows, wall = merged(json.loads(saved.read_text()), rows, wall)
+    saved.write_text(json.dumps({"rows": rows, "wall_s": wall, "jobs": args.jobs}, indent=1) + "\n")
     write_docs(rows, wall, args.jobs)
+
+
+def merged(old: dict, new: list[dict], wall: float) -> tuple[list[dict], float]:
+    """The saved rows with those run now in their place (same body and share of s_crit), new ones appended;
+    the wall time is the sum of the runs that made them."""
+    key = (lambda r: (r["body"], r["fraction_of_s_crit"]))
+    fresh = {key(r): r for r in new}
+    rows = [fresh.pop(key(r), r) for r in old["rows"]]
+    return rows + list(fresh.values()), old["wall_s"] + wall
 
 
 def write_docs(rows: list[dict], wall: float, jobs: int) -> None:

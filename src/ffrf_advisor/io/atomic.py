@@ -76,12 +76,16 @@ def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[
     target = Path(target)
     check_target(target, overwrite)
     _sweep_stale(target)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=target.parent)
-    os.close(fd)
-    tmp = Path(tmp)
-    os.chmod(tmp, _mode(target))
-    _TEMPORARIES.add(tmp)
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})  # SIGTERM waits until tmp is known
     try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=target.parent)
+        os.close(fd)
+        tmp = Path(tmp)
+        _TEMPORARIES.add(tmp)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+    try:
+        os.chmod(tmp, _mode(target))
         with terminate_cleanly():
             try:
                 yield tmp

@@ -402,10 +402,8 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
            eigenvalues: Eigenvalues = None, density: Density = None):
     """HTML or PDF report: verdict, evidence, the paper's figures and tables, pictures, Campbell, verification."""
     from .report import document
-    from .report.write import check_target, write
-    check_target(output, bodies)
-    if output.exists() and not force:
-        raise FFRFError(f"{output}: exists; refusing to overwrite (use --force)")
+    from .report.write import check_report_target, write
+    check_report_target(output, bodies, force)
     if verification and len(verification) != len(bodies):
         raise FFRFError(f"--verification: expected one file per body ({len(bodies)}), got {len(verification)}")
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
@@ -444,7 +442,7 @@ def sample(name: str = typer.Argument(..., help=f"One of: {', '.join(SAMPLES)}."
            refine: int = typer.Option(1, "--refine", help="Element size divided by this (mesh convergence)."),
            force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT.")):
     """Build a sample body from its recipe (docs/samples.md): FE mesh, free-free modes, stress."""
-    check_target(output, force)  # a bad target or an unknown suffix fails before the minutes of FE work
+    check_target(output, force)  # a bad target or suffix fails before the minutes of FE work
     format_of(output)
     start = time.perf_counter()
     body = make_sample(name, refine, report=lambda step: err.print(
@@ -494,8 +492,7 @@ def augment(body: Path = typer.Argument(..., help="Body file with FE data and ma
     cannot carry the widening."""
     from .augment import augment as add_residual_vectors, parse_axes
     chosen = parse_axes(axes)
-    if output.exists() and not force:
-        raise FFRFError(f"{output}: exists; refusing to overwrite (use --force)")
+    check_target(output, force)
     b = _read(body)
     new = add_residual_vectors(b, chosen, str(body))
     write_body(new, output, "ffrf-h5", overwrite=force)

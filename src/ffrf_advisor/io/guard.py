@@ -49,21 +49,7 @@ def run(path, what: str, fn, *args, extra_bytes: int = 0):
     if not FORK:
         return fn(*args)
     seconds, limit = deadline_seconds(path, extra_bytes), max_bytes()  # a bad limit is the parent's one-line error
-    read_end, write_end = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # child: never returns into the caller's code
-        os.close(read_end)
-        _child(write_end, seconds, limit, fn, args)
-    os.close(write_end)
-    status = None
-    try:
-        data = _collect(read_end, time.monotonic() + seconds)
-        if data is not None:
-            status, pid = os.waitpid(pid, 0)[1], 0
-    finally:
-        os.close(read_end)
-        if pid:
-            _kill(pid)
+    data, status = _forked(lambda fd: _child(fd, seconds, limit, fn, args), time.monotonic() + seconds)
     if not data:
         raise BodyFileError(path, "file", f"a file {what} can read", f"{what} {_failure(path, seconds, status)}")
     try:
@@ -83,20 +69,7 @@ def run_writer(target, fn, *args) -> None:
     with its parent."""
     if not FORK:
         return fn(*args)
-    read_end, write_end = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # child: never returns into the caller's code
-        os.close(read_end)
-        _writer_child(write_end, fn, args)
-    os.close(write_end)
-    try:
-        data = _collect(read_end, float("inf"))
-        status = os.waitpid(pid, 0)[1]
-        pid = 0
-    finally:
-        os.close(read_end)
-        if pid:
-            _kill(pid)
+    data, status = _forked(lambda fd: _writer_child(fd, fn, args), float("inf"))
     if os.WIFEXITED(status) and os.WEXITSTATUS(status) == 0:
         return None
     got = (data.decode("utf-8", "replace") if data else
@@ -104,22 +77,45 @@ def run_writer(target, fn, *args) -> None:
     raise FFRFError(f"{target}: write: expected to write the file, got {' '.join(got.split())[:200]}")
 
 
+def _forked(child, deadline: float) -> tuple[bytes | None, int | None]:
+    """Run ``child(fd)`` in a forked process (it must end with ``os._exit``); what it wrote to ``fd`` (None past
+    the ``deadline``, time.monotonic) and its wait status (None when killed here). The child is killed and
+    reaped on every path out."""
+    read_end, write_end = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # child: never returns into the caller's code
+        os.close(read_end)
+        child(write_end)
+    os.close(write_end)
+    status = None
+    try:
+        data = _collect(read_end, deadline)
+        if data is not None:
+            status, pid = os.waitpid(pid, 0)[1], 0
+    finally:
+        os.close(read_end)
+        if pid:
+            _kill(pid)
+    return data, status
+
+
+def _send(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
+
+
 def _writer_child(fd: int, fn, args) -> None:
     code, message = 0, b""
     try:
-        die_with_parent()
-        faulthandler.disable()
+        _plain_child()
         devnull = os.open(os.devnull, os.O_WRONLY)  # the libraries' own complaints: the parent says it in one line
         os.dup2(devnull, 2)
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, signal.SIG_DFL)
         fn(*args)
     except BaseException as e:  # noqa: BLE001 - the parent reports it in one line
         code, message = 1, f"{type(e).__name__}: {e}".encode("utf-8", "replace")
     try:
-        view = memoryview(message)
-        while view:
-            view = view[os.write(fd, view):]
+        _send(fd, message)
     finally:
         os._exit(code)  # no cleanup: a library's destructor may crash after a failed write
 
@@ -175,9 +171,7 @@ def _child(fd: int, seconds: float, limit: int, fn, args) -> None:
                                               "body read to the parent (a copy of it)")))
         except Exception as e:  # noqa: BLE001 - an exception that does not pickle travels as its text
             data = _dumps((False, RuntimeError(f"{type(message[1]).__name__}: {e}")))
-        view = memoryview(data)
-        while view:
-            view = view[os.write(fd, view):]
+        _send(fd, data)
     except BaseException:  # noqa: BLE001 - nothing may return into the parent's code
         code = 1
     os._exit(code)
@@ -204,12 +198,18 @@ def die_with_parent(parent: int | None = None) -> None:
         os._exit(1)
 
 
-def _bound_self(seconds: float, limit: int) -> None:
-    """Die with the parent, at the deadline, and before allocating more than the memory limit."""
-    faulthandler.disable()  # a crash is reported by the parent, in one line
+def _plain_child() -> None:
+    """A child of the tool: its crash is reported by the parent in one line, it dies with the parent, and
+    signals take their default actions (not the parent's handlers)."""
+    faulthandler.disable()
     die_with_parent()
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGALRM):
         signal.signal(sig, signal.SIG_DFL)
+
+
+def _bound_self(seconds: float, limit: int) -> None:
+    """Die with the parent, at the deadline, and before allocating more than the memory limit."""
+    _plain_child()
     signal.alarm(int(seconds) + 2)
     size = _address_space()
     if size:

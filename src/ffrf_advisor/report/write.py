@@ -4,18 +4,19 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import FFRFError
-from ..io.atomic import atomic_path, refuse_inputs
+from ..io.atomic import atomic_path, check_target, refuse_inputs
 from . import html, pdf
 from .document import Document
 
 SUFFIXES = (".html", ".htm", ".pdf")
 
 
-def check_target(path: Path, inputs: list[Path]) -> None:
-    """A report goes to .html/.htm/.pdf, never onto one of its own inputs."""
+def check_report_target(path: Path, inputs: list[Path], overwrite: bool) -> None:
+    """A report goes to .html/.htm/.pdf, never onto one of its own inputs, and as any output (check_target)."""
     if path.suffix.lower() not in SUFFIXES:
         raise FFRFError(f"{path}: expected a report file ending in {', '.join(SUFFIXES)}")
     refuse_inputs(path, inputs, "is an input of this run; refusing to write the report over it")
+    check_target(path, overwrite)
 
 
 def write(doc: Document, path: Path, overwrite: bool) -> None:

@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 
 from ..errors import FFRFError
-from ..io.atomic import atomic_path
+from ..io.atomic import atomic_path, check_target
 from ..io.guard import run_writer
 from .equations import angular_momentum, energy
 from .integrate import Run
@@ -32,11 +32,10 @@ def table(model: Model, run: Run) -> np.ndarray:
 
 
 def check_output(path: Path, force: bool = False) -> None:
-    """Fail early: a .csv or .h5 name, not an existing file unless ``force``."""
+    """Fail early: a .csv or .h5 name that may be written (io.atomic.check_target)."""
     if Path(path).suffix.lower() not in (".csv", ".h5"):
         raise FFRFError(f"{path}: output: expected a .csv or .h5 file")
-    if Path(path).exists() and not force:
-        raise FFRFError(f"{path}: exists; refusing to overwrite (use --force)")
+    check_target(path, force)
 
 
 def write_trajectory(path: Path, model: Model, run: Run, force: bool = False) -> None:

@@ -1,12 +1,15 @@
 """Mutation fuzzing of one reader and the analysis after it, in a child process with a memory limit
 (see tests/test_fuzz.py).
 
-python tests/fuzz_readers.py SEED_FILE CASES RNG_SEED [KEY=VALUE reader options as JSON]
+python tests/fuzz_readers.py SEED_FILE CASES RNG_SEED [reader options as JSON]
 prints one JSON line: counts of outcomes and the first offending cases. Byte damage (truncation, bit
-flips, random spans, hostile numbers) is mixed with structural damage of HDF5 files (huge declared
-shapes, external and soft links, long strings) and long strings in JSON. A case passes when the body
-is read and analysed, or when either ends in the project's one-line error; a timeout, a traceback or
-a multi-line message fails it.
+flips, random spans, hostile numbers in text and in binary) is mixed with structural damage of HDF5
+files (huge declared shapes, external and soft links, long strings), long strings in JSON, and bodies
+that cannot exist or whose cache disagrees with its nodal data (``mutate_physics``: negated, scaled or
+NaN entries, indefinite matrices, shuffled rows). The option ``"_read": NAME`` reads the sibling NAME
+of the damaged file instead (a damaged geometry deck or punch file beside an intact OP2). Outcomes:
+``valid`` (read and analysed), ``one_line_error`` (the project's error), ``multi_line``,
+``traceback`` and ``hang``; a case passes in the first two.
 """
 from __future__ import annotations
 
@@ -14,6 +17,7 @@ import json
 import re
 import resource
 import signal
+import struct
 import sys
 import tempfile
 import traceback
@@ -35,9 +39,20 @@ NUMBER = re.compile(rb"-?\d+(\.\d+)?([eE][-+]?\d+)?")
 HOSTILE = [b"1e308", b"-1", b"0", b"nan", b"99999999999", b"2147483647", b"-0.0", b"1e-320", b"3"]
 
 
+BINARY_HOSTILE = [struct.pack("<f", x) for x in (np.nan, np.inf, -1.0, 0.0, 3e38, 1e-45)] + \
+    [struct.pack("<d", x) for x in (np.nan, -np.inf, -1.0, 1e308, 5e-324)] + \
+    [struct.pack("<i", x) for x in (-1, 0, 2**31 - 1, -2**31)]
+FAILURES = ("multi_line", "traceback", "hang")
+
+
 def mutate(data: bytes, rng: np.random.Generator) -> bytes:
-    """One random damage: truncation, bit flips, a random span, random bytes, or a hostile number."""
-    kind = rng.integers(5)
+    """One random damage: truncation, bit flips, a random span, random bytes, a hostile number in the text
+    or a hostile binary number (float32, float64, int32) at an aligned offset."""
+    kind = rng.integers(6)
+    if kind == 5:
+        value = BINARY_HOSTILE[rng.integers(len(BINARY_HOSTILE))]
+        i = int(rng.integers(max(1, len(data) // 4))) * 4
+        return data[:i] + value + data[i + len(value):]
     b = bytearray(data)
     if kind == 0:
         return bytes(b[: rng.integers(len(b))])
@@ -84,6 +99,42 @@ def mutate_structure(path: Path, rng: np.random.Generator) -> None:
             f.attrs["name"] = "\x1b[2J" + "x" * LONG
 
 
+def unphysical(a: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """A body that cannot exist or a cache that disagrees: ``a`` negated, scaled by 1 + 10^-k, with one entry
+    negated or NaN, made indefinite (a square matrix minus twice its largest entry on the diagonal), or with
+    its rows shuffled."""
+    b = np.array(a, dtype=float)
+    kind = rng.integers(6)
+    if kind == 0:
+        return -b
+    if kind == 1:
+        return b * (1 + 10.0 ** -int(rng.integers(2, 9)))
+    if kind in (2, 3) and b.size:
+        b.flat[rng.integers(b.size)] = np.nan if kind == 3 else -abs(b.flat[rng.integers(b.size)]) - 1
+        return b
+    if kind == 4 and b.ndim >= 2 and b.shape[-1] == b.shape[-2]:
+        return b - 2 * np.abs(b).max() * np.eye(b.shape[-1])
+    return b[rng.permutation(len(b))] if b.ndim else -b
+
+
+def mutate_physics(path: Path, rng: np.random.Generator) -> None:
+    """One numeric dataset of an HDF5 file, or one number or array of a JSON file, made ``unphysical``."""
+    if path.suffix == ".json":
+        doc = json.loads(path.read_text())
+        keys = [k for k, v in doc.items() if isinstance(v, (int, float, list)) and not isinstance(v, bool)]
+        key = keys[rng.integers(len(keys))]
+        doc[key] = unphysical(np.asarray(doc[key], dtype=float), rng).tolist()
+        path.write_text(json.dumps(doc))  # NaN as JSON5-style NaN: the reader must refuse it
+        return
+    import h5py
+
+    with h5py.File(path, "r+") as f:
+        names = []
+        f.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) and o.dtype.kind == "f" else None)
+        name = names[rng.integers(len(names))]
+        f[name][...] = unphysical(f[name][()], rng)
+
+
 def mutate_json(data: bytes) -> bytes:
     """A long string where the body's name is."""
     return data.replace(b'"name": "', b'"name": "' + b"\\u001b[31m" + b"y" * LONG, 1)
@@ -98,14 +149,18 @@ def _timeout(*_):
 
 
 def damage(seed: Path, data: bytes, target: Path, rng: np.random.Generator) -> None:
-    """One damaged file at ``target``: byte damage in 3 of 4 cases, else structural."""
-    if rng.random() < 0.75:
+    """One damaged file at ``target``: byte damage in 3 of 5 cases, else structural or physical (HDF5, JSON)."""
+    draw = rng.random()
+    if draw < 0.6 or seed.suffix not in (".h5", ".json"):
         target.write_bytes(mutate(data, rng))
+        return
+    target.write_bytes(data)
+    if draw < 0.8:
+        mutate_physics(target, rng)
     elif seed.suffix == ".h5":
-        target.write_bytes(data)
         mutate_structure(target, rng)
     else:
-        target.write_bytes(mutate_json(data) if seed.suffix == ".json" else mutate(data, rng))
+        target.write_bytes(mutate_json(data))
 
 
 def main(seed_file: str, cases: int, rng_seed: int, options: dict) -> dict:
@@ -113,8 +168,10 @@ def main(seed_file: str, cases: int, rng_seed: int, options: dict) -> dict:
     seed = Path(seed_file)
     data = seed.read_bytes()
     rng = np.random.default_rng(rng_seed)
-    counts = {"analysed": 0, "ffrf_error": 0, "other": 0}
+    counts = dict.fromkeys(("valid", "one_line_error", *FAILURES), 0)
     offending = []
+    options = dict(options)
+    read_name = options.pop("_read", seed.name)
     with tempfile.TemporaryDirectory() as d:
         target = Path(d) / seed.name  # same name: the suffix picks the reader
         for sibling in seed.parent.iterdir():  # e.g. job.inp, job.dat beside job.frd
@@ -124,15 +181,15 @@ def main(seed_file: str, cases: int, rng_seed: int, options: dict) -> dict:
             damage(seed, data, target, rng)
             signal.alarm(CASE_SECONDS)
             try:
-                analyze(read_body(target, **options), ANALYSIS)
-                counts["analysed"] += 1
+                analyze(read_body(target.with_name(read_name), **options), ANALYSIS)
+                counts["valid"] += 1
             except FFRFError as e:
-                counts["ffrf_error"] += 1
-                if "\n" in str(e):
-                    counts["other"] += 1
+                kind = "multi_line" if "\n" in str(e) else "one_line_error"
+                counts[kind] += 1
+                if kind == "multi_line" and len(offending) < 5:
                     offending.append({"case": case, "error": "multi-line message: " + str(e)[:300]})
             except BaseException as e:  # noqa: BLE001 - exactly what the fuzz test looks for
-                counts["other"] += 1
+                counts["hang" if isinstance(e, CaseTimeout) else "traceback"] += 1
                 if len(offending) < 5:
                     offending.append({"case": case, "error": f"{type(e).__name__}: {str(e)[:200]}",
                                       "where": traceback.format_exc().splitlines()[-3][:200]})

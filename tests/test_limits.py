@@ -222,3 +222,37 @@ def test_a_child_out_of_memory_names_the_limit(tmp_path, monkeypatch):
     result = runner.invoke(app, ["--max-memory", "470M", "info", str(BEAM)])
     assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
     assert "memory: expected a body that fits the memory limit of 470 MiB" in result.output
+
+
+@pytest.mark.slow
+def test_max_memory_bounds_the_peak_of_the_process_tree(tmp_path):
+    """Issue 23, item 8: --max-memory bounded the bytes a file declares while a body that fit 470M peaked at
+    939 MB in the process tree. Now the peak of the parent and the reading child above a tiny body's run stays
+    within the limit, and a limit the body does not fit is one line naming the limit and the numbers."""
+    from .tree_memory import synthetic_body, tree_rss
+
+    tiny, body = tmp_path / "tiny.ffrf.h5", tmp_path / "bar.ffrf.h5"
+    synthetic_body(tiny, 10, 10)
+    declared = synthetic_body(body, 1400, 20)  # 93 MiB of arrays, 78 MiB of them modes
+    limit = int(1.02 * limits.TREE_BYTES_PER_BYTE * declared)  # 2 %: eigenvalues and attributes
+    code_tiny, _, base = tree_rss(["analyze", str(tiny), "--speed", "10rad/s"])
+    code, out, rss = tree_rss(["--max-memory", str(limit), "analyze", str(body), "--speed", "10rad/s"])
+    assert code_tiny == code == 0, out
+    extra = (rss["parent"] - base["parent"] + rss["child"] - base["child"]) * 2**20
+    assert extra <= limit, (rss, base, limit)
+    code, out, _ = tree_rss(["--max-memory", str(int(0.9 * limit)), "analyze", str(body), "--speed", "10rad/s"])
+    assert code == 2 and len(out.strip().splitlines()) == 1, out
+    assert "expected data that fit the memory limit of" in out and "for the process tree" in out, out
+
+
+def test_the_parent_refuses_a_message_larger_than_the_limit_before_allocating_it():
+    """A reading child (subverted by a hostile file) that announces more than the memory limit gets no
+    allocation of that size in the parent; one that sends less than it announced is an early end."""
+    read_end, write_end = os.pipe()
+    os.write(write_end, guard._LENGTH.pack(1) + guard._LENGTH.pack(10) + guard._LENGTH.pack(2**40))
+    with pytest.raises(guard._Oversize):
+        guard._receive(read_end, time.monotonic() + 5, 2**30)
+    os.write(write_end, guard._LENGTH.pack(0) + guard._LENGTH.pack(10) + b"short")
+    os.close(write_end)
+    assert guard._receive(read_end, time.monotonic() + 5, 2**30) == ()
+    os.close(read_end)

@@ -1,6 +1,9 @@
 """Nastran SOL 103 OP2 files (issue 16): real result files from ../shared/data/nastran (read-only inputs)."""
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -19,7 +22,7 @@ from ffrf_advisor.errors import FFRFError  # noqa: E402
 from ffrf_advisor.guidelines import Situation  # noqa: E402
 from ffrf_advisor.io import nastran, nastran_dmig, nastran_mass, read_body, write_body  # noqa: E402
 
-from .fuzz_readers import mutate  # noqa: E402
+from .fuzz_readers import FAILURES, mutate  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "nastran"
 BEAM = DATA / "beam_modes_m1.op2"
@@ -384,6 +387,27 @@ def test_damaged_punch_files_end_in_one_line(tmp_path):
             refused += 1
             assert len(result.output.strip().splitlines()) == 1 and "frame.pch" in result.output, result.output
     assert refused > 0
+
+
+@pytest.mark.slow
+def test_a_punch_beside_an_op2_survives_hundreds_of_damaged_copies(tmp_path):
+    """Issue 23, item 18: the Nastran reader with the fuzzer's classes beyond the OP2's own bytes: the free
+    body's MAAX/KAAX punch beside a clamped run, damaged (hostile numbers make it indefinite or NaN), counted
+    by the harness; only valid bodies and one-line errors pass."""
+    points, K, M = _space_frame()
+    run = _clamped_run(points, K, M, 12)
+    _write_op2(tmp_path / "frame.op2", points, run.eigenvalues, run.T, run.R)
+    _write_punch(tmp_path / "frame.pch", {"MAAX": sp.csr_array(M), "KAAX": sp.csr_array(K)})
+    done = subprocess.run([sys.executable, str(Path(__file__).parent / "fuzz_readers.py"), str(tmp_path / "frame.pch"),
+                           str(PUNCH_CASES), "20261124", json.dumps({"_read": "frame.op2"})],
+                          capture_output=True, text=True, timeout=1800)
+    assert done.returncode == 0, done.stderr[-2000:]
+    counts = json.loads(done.stdout.strip().splitlines()[-1])["counts"]
+    assert all(counts[k] == 0 for k in FAILURES) and sum(counts.values()) == PUNCH_CASES, counts
+    assert counts["one_line_error"] > 0 and counts["valid"] > 0, counts
+
+
+PUNCH_CASES = 80  # about 0.5 s each
 
 
 def _rows(table, eid: int, nid: int) -> np.ndarray:

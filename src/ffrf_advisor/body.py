@@ -8,7 +8,7 @@ import scipy.sparse as sp
 
 from .fe.material import Material
 from .fe.mesh import Mesh
-from .invariants import (RotaryIntegrals, ShapeIntegrals, frozen_array, principal_axes, rotary_integrals,
+from .invariants import (CHUNK_BYTES, RotaryIntegrals, ShapeIntegrals, frozen_array, principal_axes, rotary_integrals,
                          shape_integrals)
 from .units import TMM, Units, factor
 
@@ -102,8 +102,12 @@ class ModalFE:
                                None if self.rotary is None else self.rotary.integrals())
 
     def max_deflection(self) -> np.ndarray:
-        """Largest nodal displacement magnitude of each mode at unit modal coordinate (nf,)."""
-        return np.sqrt(np.einsum("ikp,ikp->ip", self.Phi, self.Phi)).max(axis=0)
+        """Largest nodal displacement magnitude of each mode at unit modal coordinate (nf,), over blocks of
+        nodal rows (no temporary the size of Phi)."""
+        rows = max(1, CHUNK_BYTES // max(1, self.Phi[:1].nbytes))
+        squares = [np.einsum("ikp,ikp->ip", b, b).max(axis=0) for b in
+                   (self.Phi[a:a + rows] for a in range(0, len(self.Phi), rows))]
+        return np.sqrt(np.max(squares, axis=0))
 
     def transformed(self, c: np.ndarray, R: np.ndarray) -> "ModalFE":
         """Points x' = R^T (x - c), mode components S' = R^T S, K' = T^T K T with T = kron(1, R)."""

@@ -276,7 +276,7 @@ def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_
     if w_range is not None and speed is not None:
         raise FFRFError("--speed and --speed-range: expected one of them, got both")
     w_op = w_range[1] if w_range is not None else (None if speed is None else parse_speed(speed))
-    if w_op is not None and w_range is None and _is_number(speed):
+    if w_op and w_range is None and _is_number(speed):  # 0 is 0 in every unit
         err.print(f"note: speed {speed} has no unit: read as {w_op:g} rad/s (write e.g. 3000rpm or 50Hz)",
                   highlight=False)
     vector, principal = _spin_axis(pick(spin_axis, "spin_axis"))

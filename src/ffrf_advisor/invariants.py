@@ -26,9 +26,12 @@ def _sym(a: np.ndarray) -> np.ndarray:
 
 
 def frozen_array(a):
-    """A read-only float copy of a (None stays None): immutable body data."""
+    """A read-only float copy of a (None stays None): immutable body data. An array that is already read-only
+    float data of its own (as the readers return them) is taken as it is: a body file's modes are not copied."""
     if a is None:
         return None
+    if isinstance(a, np.ndarray) and a.dtype == np.float64 and a.flags.owndata and not a.flags.writeable:
+        return a
     a = np.array(a, dtype=float)
     a.flags.writeable = False
     return a

@@ -157,6 +157,7 @@ class _Reader:
         data = data.astype(np.int64 if integer else float, copy=False)
         if not integer and not np.all(np.isfinite(data)):
             self.fail(name, what, "NaN or inf")
+        data.flags.writeable = False  # body data as read (invariants.frozen_array takes it without a copy)
         return data
 
     def attr(self, name: str, obj=None) -> str:

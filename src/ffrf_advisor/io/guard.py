@@ -24,10 +24,11 @@ import pickle
 import resource
 import select
 import signal
+import struct
 import time
 
 from ..errors import BodyFileError, FFRFError
-from .limits import human, max_bytes
+from .limits import ENV, human, max_bytes
 
 BASE_SECONDS = 30.0  # a valid file reads in well under this ...
 SECONDS_PER_BYTE = 1 / (2 * 2**20)  # ... plus 1 s per 2 MiB (meshio parses text at tens of MiB/s)
@@ -49,11 +50,17 @@ def run(path, what: str, fn, *args, extra_bytes: int = 0):
     if not FORK:
         return fn(*args)
     seconds, limit = deadline_seconds(path, extra_bytes), max_bytes()  # a bad limit is the parent's one-line error
-    data, status = _forked(lambda fd: _child(fd, seconds, limit, fn, args), time.monotonic() + seconds)
+    try:
+        data, status = _forked(lambda fd: _child(fd, seconds, limit, fn, args), time.monotonic() + seconds,
+                               lambda fd, deadline: _receive(fd, deadline, limit + SLACK))
+    except _Oversize as e:
+        raise BodyFileError(path, "file", f"a body that fits the memory limit of {human(limit)} (--max-memory or "
+                            f"{ENV})", f"{human(e.args[0])} sent back by the reading child") from None
     if not data:
         raise BodyFileError(path, "file", f"a file {what} can read", f"{what} {_failure(path, seconds, status)}")
+    header, buffers = data
     try:
-        ok, value = _Unpickler(io.BytesIO(data)).load()
+        ok, value = _Unpickler(io.BytesIO(header), buffers=buffers).load()
     except (pickle.UnpicklingError, ValueError, TypeError, EOFError) as e:
         raise BodyFileError(path, "file", f"a file {what} can read",
                             f"the reading child sent back something outside the body model ({e})") from None
@@ -77,10 +84,10 @@ def run_writer(target, fn, *args) -> None:
     raise FFRFError(f"{target}: write: expected to write the file, got {' '.join(got.split())[:200]}")
 
 
-def _forked(child, deadline: float) -> tuple[bytes | None, int | None]:
-    """Run ``child(fd)`` in a forked process (it must end with ``os._exit``); what it wrote to ``fd`` (None past
-    the ``deadline``, time.monotonic) and its wait status (None when killed here). The child is killed and
-    reaped on every path out."""
+def _forked(child, deadline: float, receive=None) -> tuple[object, int | None]:
+    """Run ``child(fd)`` in a forked process (it must end with ``os._exit``); what it wrote to ``fd``, as
+    ``receive(fd, deadline)`` reads it (default ``_collect``; None past the ``deadline``, time.monotonic), and
+    its wait status (None when killed here). The child is killed and reaped on every path out."""
     read_end, write_end = os.pipe()
     pid = os.fork()
     if pid == 0:  # child: never returns into the caller's code
@@ -89,7 +96,7 @@ def _forked(child, deadline: float) -> tuple[bytes | None, int | None]:
     os.close(write_end)
     status = None
     try:
-        data = _collect(read_end, deadline)
+        data = (receive or _collect)(read_end, deadline)
         if data is not None:
             status, pid = os.waitpid(pid, 0)[1], 0
     finally:
@@ -166,25 +173,84 @@ def _child(fd: int, seconds: float, limit: int, fn, args) -> None:
             message = (False, _transportable(e))
         try:
             data = _dumps(message)
-        except MemoryError:  # the body was read, but its copy for the parent passes the limit
+        except MemoryError:  # the body was read, but pickling it passes the limit
             data = _dumps((False, MemoryError(f"needed more than the memory limit of {human(limit)} to send the "
-                                              "body read to the parent (a copy of it)")))
+                                              "body read to the parent")))
         except Exception as e:  # noqa: BLE001 - an exception that does not pickle travels as its text
             data = _dumps((False, RuntimeError(f"{type(message[1]).__name__}: {e}")))
-        _send(fd, data)
+        _send_message(fd, *data)
     except BaseException:  # noqa: BLE001 - nothing may return into the parent's code
         code = 1
     os._exit(code)
 
 
-def _dumps(message) -> bytes:
-    """The child's message pickled with the standard reductions of exceptions: a package that registered its
-    own (tblib, which Dask distributed imports) would send functions the parent's allow-list refuses."""
-    buffer = io.BytesIO()
-    pickler = pickle.Pickler(buffer, protocol=pickle.HIGHEST_PROTOCOL)
+def _dumps(message) -> tuple[bytes, list[memoryview]]:
+    """The child's message pickled with the standard reductions of exceptions (a package that registered its
+    own, as tblib does when Dask distributed is imported, would send functions the parent's allow-list
+    refuses), and the arrays' memory apart (pickle protocol 5's out-of-band buffers): sent from where they
+    are, so the child holds no copy of the body."""
+    buffer, buffers = io.BytesIO(), []
+    pickler = pickle.Pickler(buffer, protocol=5, buffer_callback=buffers.append)
     pickler.dispatch_table = {t: f for t, f in copyreg.dispatch_table.items() if not issubclass(t, BaseException)}
     pickler.dump(message)
-    return buffer.getvalue()
+    return buffer.getvalue(), [b.raw() for b in buffers]
+
+
+_LENGTH = struct.Struct("<Q")
+
+
+def _send_message(fd: int, header: bytes, buffers: list[memoryview]) -> None:
+    """The number of buffers, every length, the pickle, then the buffers, each as it lies in memory."""
+    lengths = [len(header)] + [b.nbytes for b in buffers]
+    _send(fd, _LENGTH.pack(len(buffers)) + b"".join(_LENGTH.pack(n) for n in lengths))
+    for part in (header, *buffers):
+        _send(fd, part)
+
+
+class _Oversize(Exception):
+    """The child announced more bytes than its memory limit allows (the bytes in args[0])."""
+
+
+def _receive(fd: int, deadline: float, most: int) -> tuple[bytes, list[memoryview]] | tuple[()] | None:
+    """``_send_message``'s pickle and buffers (each read straight into its own memory, at most
+    ``most`` bytes in all); () when the child ended before sending it all, None past the deadline."""
+    try:
+        count = _LENGTH.unpack(_read_exact(fd, _LENGTH.size, deadline, most))[0]
+        table = _read_exact(fd, _LENGTH.size * (count + 1), deadline, most)
+        lengths = [_LENGTH.unpack_from(table, i * _LENGTH.size)[0] for i in range(count + 1)]
+        if sum(lengths) > most:
+            raise _Oversize(sum(lengths))
+        parts = [_read_exact(fd, n, deadline, most) for n in lengths]
+    except _Ended:
+        return ()
+    except _Late:
+        return None
+    return bytes(parts[0]), parts[1:]
+
+
+class _Ended(Exception):
+    """The child closed the pipe before sending all it announced."""
+
+
+class _Late(Exception):
+    """The deadline passed."""
+
+
+def _read_exact(fd: int, size: int, deadline: float, most: int) -> bytearray:
+    """``size`` bytes from ``fd``, read into one new buffer (``_Oversize`` above ``most``)."""
+    if size > most:
+        raise _Oversize(size)
+    buffer = bytearray(size)
+    view, done = memoryview(buffer), 0
+    while done < size:
+        left = deadline - time.monotonic()
+        if left <= 0 or not select.select([fd], [], [], None if left == float("inf") else left)[0]:
+            raise _Late
+        got = os.readv(fd, [view[done:]])
+        if not got:
+            raise _Ended
+        done += got
+    return buffer
 
 
 def die_with_parent(parent: int | None = None) -> None:

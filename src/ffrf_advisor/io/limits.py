@@ -5,7 +5,11 @@ size of a text file) against the limit *before* allocating, and count what
 they have allocated so far, so a file that declares 10^9 nodes ends in the
 one-line error instead of a MemoryError after the machine has swapped.
 The limit is ``--max-memory`` of the CLI, else the environment variable
-``FFRF_ADVISOR_MAX_MEMORY`` (``8G``, ``500M``, bytes), else 8 GiB.
+``FFRF_ADVISOR_MAX_MEMORY`` (``8G``, ``500M``, bytes), else 8 GiB. It bounds
+what the body costs the whole process tree beyond the interpreters: every
+declared byte is charged ``TREE_BYTES_PER_BYTE`` times (the reading child
+holds what it read, sends the arrays from where they lie, and the parent
+receives them once; benchmarks/bench_memory.py measures the ratio).
 """
 from __future__ import annotations
 
@@ -16,6 +20,8 @@ from ..errors import BodyFileError, FFRFError
 
 ENV = "FFRF_ADVISOR_MAX_MEMORY"
 DEFAULT = 8 * 2**30
+TREE_BYTES_PER_BYTE = 3.0  # measured 2.3-2.9 (benchmarks/bench_memory.py, 27-185 MiB declared): the child's
+# read with its finite-check masks and blocks of the nodal sums, the parent's body and blocks of the analysis
 _UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
 _set: int | None = None
 
@@ -60,10 +66,13 @@ class Budget:
         self.path, self.used, self.limit = path, 0, max_bytes()
 
     def take(self, field: str, nbytes: float) -> None:
-        if self.used + nbytes > self.limit:
+        """Charge ``nbytes`` read by the child (``TREE_BYTES_PER_BYTE`` times: the child's and the parent's)."""
+        tree = nbytes * TREE_BYTES_PER_BYTE
+        if self.used + tree > self.limit:
             raise BodyFileError(self.path, field, f"data that fit the memory limit of {human(self.limit)} "
-                                f"(--max-memory or {ENV})", f"{human(nbytes)} declared")
-        self.used += int(nbytes)
+                                f"(--max-memory or {ENV})", f"{human(nbytes)} declared, "
+                                f"{human(self.used + tree)} for the process tree with what was read before")
+        self.used += int(tree)
 
 
 def check_file_size(path, factor: float = 1.0) -> None:

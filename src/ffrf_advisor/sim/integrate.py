@@ -1,4 +1,5 @@
-"""Integrators for the FFRF equations: fixed-step RK4 (two rotation updates), implicit midpoint, scipy's solve_ivp.
+"""Integrators for the FFRF equations: fixed-step RK4 (two rotation updates), implicit midpoint, compiled
+DOP853 (``dop853``, sim.dop853), and scipy's solve_ivp (``scipy-dop853``, ``rk45``, ...).
 
 Every run returns a ``Run``: the sampled trajectory, right-hand-side
 evaluations, steps, wall time and, instead of an exception, a failure flag
@@ -17,11 +18,13 @@ from typing import Callable
 import numpy as np
 import scipy.linalg as sla
 
+from .loads import Loads
 from .model import Model
 
 FIXED = ("rk4", "rk4-lie", "midpoint")
-ADAPTIVE = ("dop853", "rk45", "radau", "bdf", "lsoda")
-SCIPY_NAMES = {"dop853": "DOP853", "rk45": "RK45", "radau": "Radau", "bdf": "BDF", "lsoda": "LSODA"}
+ADAPTIVE = ("dop853", "scipy-dop853", "rk45", "radau", "bdf", "lsoda")
+SCIPY_NAMES = {"dop853": "DOP853", "scipy-dop853": "DOP853", "rk45": "RK45", "radau": "Radau", "bdf": "BDF",
+               "lsoda": "LSODA"}
 INTEGRATORS = FIXED + ADAPTIVE
 REASONS = {1: "state not finite or overflowing", 2: "quaternion norm lost"}
 NEWTON_TOL = 1e-12   # relative size of the last Newton correction of the implicit midpoint rule
@@ -31,19 +34,6 @@ NEWTON_MAX = 20
 def rk4_limit(eigenvalues) -> float:
     """``2 sqrt 2 / Omega_max``: the largest stable explicit RK4 step on undamped modes (theory section 10)."""
     return 2 * np.sqrt(2) / float(np.sqrt(np.abs(np.asarray(eigenvalues)).max()))
-
-
-@dataclass(frozen=True)
-class Loads:
-    """External torque (body frame) and modal forces as functions of time; ``prescribed`` gives (w, w')."""
-
-    torque: Callable[[float], np.ndarray] | None = None
-    modal: Callable[[float], np.ndarray] | None = None
-    prescribed: Callable[[float], tuple[np.ndarray, np.ndarray]] | None = None
-
-    @property
-    def none(self) -> bool:
-        return self.torque is None and self.modal is None and self.prescribed is None
 
 
 @dataclass(frozen=True)
@@ -117,8 +107,14 @@ def integrate(model: Model, y0: np.ndarray, t_end: float, method: str = "rk4", s
         nsteps = every * int(np.ceil(nsteps / every))
         if method in ("rk4", "rk4-lie") and loads.none:
             return _rk4_compiled(model, y0, step, nsteps, every, method == "rk4-lie", progress)
+        if method == "midpoint" and loads.compiled() is not None:
+            return _midpoint_compiled(model, y0, step, nsteps, every, loads.compiled())
         return _fixed_python(model, y0, step, nsteps, every, method, loads, progress)
-    return _adaptive(model, y0, t_end, method, rtol, atol, output_step or t_end / 1000, loads)
+    output_step = output_step or t_end / 1000
+    program = loads.compiled()
+    if method == "dop853" and program is not None:
+        return _dop853_compiled(model, y0, t_end, rtol, atol, output_step, program)
+    return _adaptive(model, y0, t_end, method, rtol, atol, output_step, loads)
 
 
 def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
@@ -143,6 +139,25 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
     rows = (done // every if code else nsteps // every) + 1
     return Run("rk4-lie" if lie else "rk4", np.arange(rows) * every * h, out[:rows], 4 * done, done, wall,
                failed=code != 0, t_fail=done * h if code else None, reason=REASONS.get(code, ""), step=h)
+
+
+MIDPOINT_FAILURES = {1: REASONS[1], 2: REASONS[2], 3: "Newton iteration did not converge"}
+
+
+def _midpoint_compiled(model, y0, h, nsteps, every, program) -> Run:
+    """The implicit midpoint rule in compiled code (sim.midpoint; ``_midpoint_step`` is its reference)."""
+    from . import kernels, midpoint
+    m = model
+    out = np.empty((nsteps // every + 1, len(y0)))
+    start = time.perf_counter()
+    steps, nfev, code = midpoint.midpoint_loop(
+        y0, h, nsteps, every, out,
+        (m.flags, m.I0, m.Ibar, m.Sbar, m.W3k, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf)),
+        program, np.zeros(m.nf))
+    wall = time.perf_counter() - start
+    rows = (steps - 1 if code else steps) // every + 1
+    return Run("midpoint", np.arange(rows) * every * h, out[:rows], nfev, steps, wall, code != 0,
+               steps * h if code else None, MIDPOINT_FAILURES.get(code, ""), h)
 
 
 def _fixed_python(model, y0, h, nsteps, every, method, loads, progress) -> Run:
@@ -206,6 +221,32 @@ def _midpoint_step(f, t, y, h):
     return Y, "Newton iteration did not converge"
 
 
+def _output_times(t_end: float, output_step: float) -> np.ndarray:
+    return np.linspace(0.0, t_end, max(2, int(round(t_end / output_step)) + 1))
+
+
+DOP853_FAILURES = {1: "required step size is less than spacing between numbers", 2: REASONS[1]}
+
+
+def _dop853_compiled(model, y0, t_end, rtol, atol, output_step, program) -> Run:
+    """DOP853 in compiled code (sim.dop853), sampled on the output grid as it goes."""
+    from . import dop853, kernels
+    m = model
+    t = _output_times(t_end, output_step)
+    out = np.empty((len(t), len(y0)))
+    budget = work_budget(model, y0, t_end)
+    atol = np.broadcast_to(np.asarray(atol, float), y0.shape).copy()
+    start = time.perf_counter()
+    rows, nfev, steps, code, t_reached = dop853.integrate_dop853(
+        y0, float(t_end), float(rtol), atol, t, budget, out,
+        (m.flags, m.I0, m.Ibar, m.Sbar, m.W3k, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf)),
+        program, np.zeros(m.nf))
+    wall = time.perf_counter() - start
+    reason = (f"work budget of {budget} right-hand sides spent at t = {t_reached:.6g} (stiff, or blowing up)"
+              if code == dop853.OVER_BUDGET else DOP853_FAILURES.get(code, ""))
+    return Run("dop853", t[:rows], out[:rows], nfev, steps, wall, code != 0, t_reached if code else None, reason)
+
+
 def _adaptive(model, y0, t_end, method, rtol, atol, output_step, loads) -> Run:
     """scipy's solve_ivp with dense output sampled on the output grid; steps are the accepted ones."""
     from scipy.integrate import solve_ivp  # 0.2 s to import: only when an adaptive run needs it
@@ -219,7 +260,7 @@ def _adaptive(model, y0, t_end, method, rtol, atol, output_step, loads) -> Run:
         return Run(method, np.zeros(1), y0[None, :], f.nfev, 0, time.perf_counter() - start, True, 0.0, str(e))
     wall = time.perf_counter() - start
     t_last = float(sol.t[-1])
-    t = np.linspace(0.0, t_end, max(2, int(round(t_end / output_step)) + 1))
+    t = _output_times(t_end, output_step)
     t = t[t <= t_last]
     y = sol.sol(t).T if sol.sol is not None else y0[None, :]
     finite = np.all(np.isfinite(y), axis=1)

@@ -261,6 +261,33 @@ def rhs_into(y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, tau, fext, prescri
 
 
 @jit
+def loads_at(t, prog, tau, w, wd):
+    """Torque and prescribed (w, w') at t from ``prog`` = [tau0 (3), pulse, W (3), ramp, prescribed flag]:
+    tau = tau0 sin^2(pi t / pulse) for t < pulse (pulse = inf: tau0), w = W profile(t / ramp) (theory 10)."""
+    pulse, ramp = prog[3], prog[7]
+    f = 1.0 if pulse == np.inf else (np.sin(np.pi * t / pulse) ** 2 if t < pulse else 0.0)
+    if ramp > 0.0 and t < ramp:
+        g = (t - ramp / (2.0 * np.pi) * np.sin(2.0 * np.pi * t / ramp)) / ramp
+        gd = (1.0 - np.cos(2.0 * np.pi * t / ramp)) / ramp
+    else:
+        g, gd = 1.0, 0.0
+    for k in range(3):
+        tau[k] = prog[k] * f
+        w[k] = prog[4 + k] * g
+        wd[k] = prog[4 + k] * gd
+
+
+@jit
+def rhs_loaded(t, y, out, model, prog, fext, scratch):
+    """``rhs_into`` at time t with the loads of the packed LoadProgram ``prog`` (sim.loads) and constant modal
+    forces ``fext``; ``model`` = (flags, I0, Ibar, Sbar, W3k, lam, dmp, G, workspace), ``scratch``: three 3-vectors."""
+    flags, I0, Ibar, Sbar, W3k, lam, dmp, G, work = model
+    tau, w, wd = scratch
+    loads_at(t, prog, tau, w, wd)
+    rhs_into(y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, tau, fext, prog[8] != 0.0, w, wd, work)
+
+
+@jit
 def _qmul(a, b, out):
     """out = a * b (quaternions, scalar first)."""
     out[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3]

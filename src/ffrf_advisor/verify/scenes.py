@@ -14,7 +14,7 @@ import numpy as np
 from ..analysis import Analysis
 from ..errors import FFRFError
 from ..predict import response_time
-from ..sim.integrate import Loads
+from ..sim.loads import LoadProgram, Loads
 from ..units import TIME
 
 SCENES = ("free-spin", "spin-up", "torque-pulse", "minor-axis")
@@ -127,30 +127,15 @@ def free_spin(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
                  text="free spin, modes at q_max (worst sign pattern)")
 
 
-def spin_profile(W: float, T: float):
-    """w(t) = (W/T)(t - (T/2 pi) sin(2 pi t/T)) for t < T, then W; and its derivative (theory section 10)."""
-    def profile(t: float) -> tuple[float, float]:
-        if t >= T:
-            return W, 0.0
-        return (W / T) * (t - T / (2 * np.pi) * np.sin(2 * np.pi * t / T)), (W / T) * (1 - np.cos(2 * np.pi * t / T))
-    return profile
-
-
 def spin_up(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
     """Rotation prescribed about a body axis from rest to the speed over the ramp time, then held."""
     k = _axis(a, opts, deformation_axis(a))
     s = opts.speed * TIME[a.body.units.time] if opts.speed is not None else default_speed(a)
     ramp = _seconds(a, opts.ramp) or 10 * _first_period(a)
-    profile = spin_profile(s, ramp)
-    e = np.eye(3)[k]
-
-    def prescribed(t):
-        w, wd = profile(t)
-        return w * e, wd * e
-
     T = _seconds(a, opts.duration) or ramp + 5 * _first_period(a)
     nf = a.body.nf
-    return Scene("spin-up", k, T, np.zeros(3), np.zeros(nf), np.zeros(nf), Loads(prescribed=prescribed), speed=s,
+    loads = Loads.of(LoadProgram(spin=s * np.eye(3)[k], ramp=ramp))
+    return Scene("spin-up", k, T, np.zeros(3), np.zeros(nf), np.zeros(nf), loads, speed=s,
                  text=f"prescribed spin-up to {s:.4g} rad/time in {ramp:.4g} time units")
 
 
@@ -160,14 +145,10 @@ def torque_pulse(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
     s = opts.speed * TIME[a.body.units.time] if opts.speed is not None else default_speed(a)
     tp = _seconds(a, opts.pulse) or 0.5 * _first_period(a)
     tau0 = 2 * a.body.I0[k, k] * s / tp  # integral of tau0 sin^2(pi t / tp) over tp = tau0 tp / 2
-    e = np.eye(3)[k]
-
-    def torque(t):
-        return tau0 * np.sin(np.pi * t / tp) ** 2 * e if t < tp else 0.0 * e
-
     T = _seconds(a, opts.duration) or tp + 5 * _first_period(a)
     nf = a.body.nf
-    return Scene("torque-pulse", k, T, np.zeros(3), np.zeros(nf), np.zeros(nf), Loads(torque=torque), speed=s,
+    loads = Loads.of(LoadProgram(tau0=tau0 * np.eye(3)[k], pulse=tp))
+    return Scene("torque-pulse", k, T, np.zeros(3), np.zeros(nf), np.zeros(nf), loads, speed=s,
                  text=f"torque pulse of {tp:.3g} time units to {s:.4g} rad/time")
 
 

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..analysis import Analysis
-from ..sim.integrate import Loads, Rhs, integrate, rk4_limit
+from ..sim.integrate import Rhs, integrate, rk4_limit
+from ..sim.loads import LoadProgram, Loads
 from ..sim.linearise import linearise, static_deflection
 from ..sim.model import build_model, initial_state
 from ..sim.output import summary
@@ -100,7 +101,7 @@ def _grows(a: Analysis, terms, axis: int, s: float, periods: float = 10.0) -> bo
     kick = 1e-6 * max(float(np.abs(a.amplitudes.q_max).max()), 1e-12) * np.ones(a.body.nf)
     T = periods / float(a.body.frequencies_hz[0])
     run = integrate(model, initial_state(model, w, q_s + kick), T, "dop853", rtol=1e-7, atol=1e-3 * np.abs(kick).max(),
-                    output_step=T / 200, loads=Loads(prescribed=lambda t: (w, np.zeros(3))))
+                    output_step=T / 200, loads=Loads.of(LoadProgram(spin=w)))
     dev = np.abs(run.y[:, 7:7 + a.body.nf] - q_s).max()
     return run.failed or dev > GROWTH * np.abs(kick).max()
 

@@ -1,0 +1,176 @@
+"""DOP853 compiled around the compiled right-hand side: no Python call per evaluation (theory section 10).
+
+The method is Dormand and Prince's explicit Runge-Kutta pair of order 8
+with the error estimator of Hairer's DOP853 (orders 5 and 3 combined) and
+its dense output of order 7, step for step as scipy's ``solve_ivp(method=
+"DOP853")`` does it (initial step, error norm, step factors 0.2-10 with
+safety 0.9, no growth right after a rejection); the Butcher tableau is
+scipy's own (``scipy.integrate._ivp.dop853_coefficients``), not retyped.
+The differences are where the work goes: every stage calls
+``kernels.rhs_into`` inside the loop, the state is sampled on the output
+grid as the steps pass (three more stages only for steps that hold a
+sample), and no step's interpolant is kept, so memory is the samples'.
+
+Loads are the parametric shapes of ``sim.loads.LoadProgram`` (a sin^2
+torque pulse, a prescribed spin ramp), evaluated in the loop by
+``kernels.rhs_loaded``.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate._ivp import dop853_coefficients as tableau
+
+from .kernels import HUGE, jit, rhs_loaded as _f
+
+STAGES = tableau.N_STAGES                      # 12 stages of the step ...
+A = np.ascontiguousarray(tableau.A)            # ... 16 with the dense output's extra three
+B = np.ascontiguousarray(tableau.B)
+C = np.ascontiguousarray(tableau.C)
+E3 = np.ascontiguousarray(tableau.E3)
+E5 = np.ascontiguousarray(tableau.E5)
+D = np.ascontiguousarray(tableau.D)            # (4, 16): the interpolant's higher coefficients
+SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
+EXPONENT = -1.0 / 8.0                          # error estimator of order 7
+
+OK, TOO_SMALL, NOT_FINITE, OVER_BUDGET = 0, 1, 2, 3
+
+
+@jit
+def _rms(x, scale):
+    s = 0.0
+    for i in range(x.shape[0]):
+        s += (x[i] / scale[i]) ** 2
+    return np.sqrt(s / x.shape[0])
+
+
+@jit
+def _initial_step(t0, y0, f0, t_end, rtol, atol, model, prog, fext, scratch, y1, f1):
+    """scipy's ``select_initial_step`` for order 7 (one more evaluation)."""
+    n = y0.shape[0]
+    scale = atol + np.abs(y0) * rtol
+    d0, d1 = _rms(y0, scale), _rms(f0, scale)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, t_end - t0)
+    for i in range(n):
+        y1[i] = y0[i] + h0 * f0[i]
+    _f(t0 + h0, y1, f1, model, prog, fext, scratch)
+    for i in range(n):
+        y1[i] = f1[i] - f0[i]
+    d2 = _rms(y1, scale) / h0
+    h1 = max(1e-6, h0 * 1e-3) if d1 <= 1e-15 and d2 <= 1e-15 else (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+    return min(100.0 * h0, h1, t_end - t0)
+
+
+@jit
+def _stages(t, y, h, K, first, last, model, prog, fext, scratch, ys):
+    """K[s] for s in [first, last) from the tableau's row s (K[0] given)."""
+    n = y.shape[0]
+    for s in range(first, last):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += A[s, j] * K[j, i]
+            ys[i] = y[i] + h * acc
+        _f(t + C[s] * h, ys, K[s], model, prog, fext, scratch)
+
+
+@jit
+def _error_norm(K, h, scale):
+    """Hairer's combined estimate: |h| e5^2 / sqrt((e5^2 + 0.01 e3^2) n), e5 and e3 in the scale's norm."""
+    n = scale.shape[0]
+    e5, e3 = 0.0, 0.0
+    for i in range(n):
+        a5, a3 = 0.0, 0.0
+        for s in range(STAGES + 1):
+            a5 += E5[s] * K[s, i]
+            a3 += E3[s] * K[s, i]
+        e5 += (a5 / scale[i]) ** 2
+        e3 += (a3 / scale[i]) ** 2
+    if e5 == 0.0 and e3 == 0.0:
+        return 0.0
+    return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * n)
+
+
+@jit
+def _sample(t_old, h, y_old, y_new, K, t_out, y_out):
+    """The order-7 interpolant of the step at t_out (K holds the 16 stages)."""
+    n = y_old.shape[0]
+    x = (t_out - t_old) / h
+    F = np.empty(7)
+    for i in range(n):
+        dy = y_new[i] - y_old[i]
+        F[0] = dy
+        F[1] = h * K[0, i] - dy
+        F[2] = 2.0 * dy - h * (K[STAGES, i] + K[0, i])
+        for r in range(4):
+            acc = 0.0
+            for s in range(16):
+                acc += D[r, s] * K[s, i]
+            F[3 + r] = h * acc
+        v = 0.0
+        for r in range(6, -1, -1):  # scipy's Horner scheme in x and 1 - x, from F[6] down
+            v += F[r]
+            v *= x if (6 - r) % 2 == 0 else 1.0 - x
+        y_out[i] = y_old[i] + v
+
+
+@jit
+def integrate_dop853(y0, t_end, rtol, atol, t_out, budget, out, model, prog, fext):
+    """Integrate from 0 to t_end; row j of ``out`` is the state at t_out[j] (increasing, t_out[0] = 0).
+
+    Returns (rows written, evaluations, accepted steps, failure code, time reached).
+    """
+    n = y0.shape[0]
+    scratch = (np.empty(3), np.empty(3), np.empty(3))
+    K = np.empty((16, n))
+    ys, y_new, tmp = np.empty(n), np.empty(n), np.empty(n)
+    y = y0.copy()
+    t = 0.0
+    _f(t, y, K[0], model, prog, fext, scratch)
+    h = _initial_step(t, y, K[0], t_end, rtol, atol, model, prog, fext, scratch, ys, tmp)
+    nfev, steps, row = 2, 0, 1
+    out[0] = y
+    while t < t_end:
+        min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+        h = max(h, min_step)
+        rejected = False
+        while True:
+            if h < min_step:
+                return row, nfev, steps, TOO_SMALL, t
+            t_new = min(t + h, t_end)
+            h = t_new - t
+            _stages(t, y, h, K, 1, STAGES, model, prog, fext, scratch, ys)
+            for i in range(n):
+                acc = 0.0
+                for s in range(STAGES):
+                    acc += B[s] * K[s, i]
+                y_new[i] = y[i] + h * acc
+            _f(t_new, y_new, K[STAGES], model, prog, fext, scratch)
+            nfev += STAGES
+            if nfev > budget:
+                return row, nfev, steps, OVER_BUDGET, t
+            for i in range(n):
+                tmp[i] = atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol
+            err = _error_norm(K, h, tmp)
+            if err < 1.0:  # NaN is not: a non-finite step is rejected until the step is too small
+                factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err ** EXPONENT)
+                h *= min(1.0, factor) if rejected else factor
+                break
+            factor = SAFETY * err ** EXPONENT
+            h *= factor if factor > MIN_FACTOR else MIN_FACTOR  # NaN: the smallest factor
+            rejected = True
+        t_old, h_step = t, t_new - t
+        steps += 1
+        if row < t_out.shape[0] and t_out[row] <= t_new:
+            _stages(t_old, y, h_step, K, STAGES + 1, 16, model, prog, fext, scratch, ys)
+            nfev += 3
+            while row < t_out.shape[0] and t_out[row] <= t_new:
+                _sample(t_old, h_step, y, y_new, K, t_out[row], out[row])
+                row += 1
+        for i in range(n):
+            y[i] = y_new[i]
+            if not np.isfinite(y[i]) or abs(y[i]) > HUGE:
+                return row, nfev, steps, NOT_FINITE, t_new
+            K[0, i] = K[STAGES, i]
+        t = t_new
+    return row, nfev, steps, OK, t

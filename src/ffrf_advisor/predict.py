@@ -28,11 +28,11 @@ bounds one response error of ``verify`` (verify.measures), on its scales:
 - ``rigid``: the relative error of w. A free spin keeps ``I w + C q'``:
   the inertia change (``I_TT - C C^T``, theory 7) that T leaves out, at the
   deformation of the spinning body (static deflection plus every mode at
-  q_max), ``max_k |dI e_k| / I0_kk``, and the internal angular momentum of
-  the vibrating modes ``C q'`` that a set without the W3 group leaves out,
-  over ``I0_kk s`` (large at low spin); both bounded by the triangle
-  inequality over the modes. A stiffly connected body's rotation is imposed:
-  no rigid error then.
+  q_max), ``max_k |dI e_k| / I0_kk``, and how far the internal angular
+  momentum of the vibrating modes ``C q'``, which a set without the W3 group
+  leaves out, moves within the response time, over ``I0_kk s`` (large at
+  low spin); both bounded by the triangle inequality over the modes. A
+  stiffly connected body's rotation is imposed: no rigid error then.
 
 The modes' amplitude (``excitation``): ``"vibration"`` (default) lets every
 mode vibrate at q_max (theory 6), whatever excites it; ``"inertial"`` says
@@ -230,16 +230,30 @@ def inertia_bound(ref: Model, model: Model, D: np.ndarray) -> np.ndarray:
     return bound
 
 
+def momentum_exchange(W3k: np.ndarray, om: np.ndarray, amplitude: np.ndarray, q_static: np.ndarray,
+                      T: float) -> np.ndarray:
+    """(3,): bound on how far the internal angular momentum ``h_k = q^T W3k[k] q'`` (theory 5; W3k[k] skew)
+    of modes vibrating at ``amplitude`` (any phases) about ``q_static`` moves from its start within ``T``
+    (docs/advice.md): a pair p, q contributes ``|W_pq| a_p a_q (|dOm| + (Om_p + Om_q) / 2 min(2, |dOm| T))``
+    (a part at Om_p + Om_q of amplitude |dOm| a_p a_q / 2, moving by twice that, and a slow beat at
+    dOm = Om_q - Om_p, constant for an equal pair: a whirl keeps its own angular momentum), a static
+    deflection p with a vibrating mode q ``2 |W_pq| |q_static,p| a_q Om_q``."""
+    a, d = np.abs(amplitude), np.abs(om[None, :] - om[:, None])
+    pair = np.outer(a, a) * (d + (om[:, None] + om[None, :]) / 2 * np.minimum(2.0, d * T))
+    static = 2 * np.outer(np.abs(q_static), a * om)
+    return np.einsum("kpq,pq->k", np.abs(W3k), pair / 2 + static)  # pair / 2: each pair is counted twice
+
+
 def rigid_error(ref: Model, model: Model, q_static: np.ndarray, amplitude: np.ndarray, s: float) -> float:
     """Relative error of w: ``max_k |dI e_k| / I0_kk`` at the static deflection plus every mode at its
-    amplitude (any signs), and without the W3 group the internal angular momentum ``|C q'|_k / (I0_kk s)``
-    of the modes vibrating at it (``q'_q = Omega_q amplitude_q``)."""
+    amplitude (any signs), and without the W3 group the internal angular momentum the vibrating modes exchange
+    with the rigid motion within the response time (``momentum_exchange``), over ``I0_kk s``."""
     D = np.vstack([np.diag(amplitude), q_static[None, :]])
     I0 = np.diag(ref.I0)
     e = float(np.max(np.linalg.norm(inertia_bound(ref, model, D), axis=0) / I0))
     if ref.on("coupling") and not model.on("coupling"):
-        deflection = np.abs(amplitude) + np.abs(q_static)
-        h = np.einsum("p,kpq,q->k", deflection, np.abs(ref.W3k), np.sqrt(np.abs(ref.eigenvalues)) * np.abs(amplitude))
+        om = np.sqrt(np.abs(ref.eigenvalues))
+        h = momentum_exchange(ref.W3k, om, amplitude, q_static, response_time(om.min() / (2 * np.pi), s))
         e = max(e, float(np.max(h / (I0 * s))))
     return e
 

@@ -9,9 +9,11 @@ from pathlib import Path
 import jsonschema
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
 from ffrf_advisor.schemas import schema
 from ffrf_advisor.analysis import Options, analyze
+from ffrf_advisor.cli import app
 from ffrf_advisor.fe.build import modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh
@@ -246,6 +248,23 @@ def test_verify_command_on_a_small_body_writes_json_and_figures(tmp_path):
     bad = subprocess.run([sys.executable, "-m", "ffrf_advisor", "verify", str(path), "--scene", "moonwalk"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1 and "--scene" in bad.stderr
+
+
+def test_quick_verify_gives_the_scenes_and_the_verdict_without_the_studies(tmp_path):
+    """verify --quick (issue 24): the same verdict and errors as the whole verification, the studies null in
+    the JSON (schema verify.json) and named as left out in the text."""
+    body = modal_body(box_mesh([300.0, 20.0, 10.0], [6, 1, 1], "hexahedron20"), STEEL, 4, name="bar")
+    path = tmp_path / "bar.ffrf.h5"
+    write_body(body, path)
+    args = ["verify", str(path), "--speed", "200rad/s", "--scene", "free-spin", "--axis", "1", "--repeat", "1"]
+    quick = json.loads(CliRunner().invoke(app, [*args, "--quick", "--json"]).output)
+    jsonschema.validate(quick, schema("verify"))
+    assert quick["work_precision"] is None and quick["stability"] is None and quick["campbell"] is None
+    whole = json.loads(CliRunner().invoke(app, [*args, "--json"]).output)
+    assert quick["verdict"] == whole["verdict"] and whole["stability"] is not None
+    assert [r["errors"] for r in quick["results"]] == [r["errors"] for r in whole["results"]]
+    text = CliRunner().invoke(app, [*args, "--quick"]).output
+    assert "quick: no work-precision, stability or Campbell studies" in text
 
 
 # ---------------------------------------------------------------- sweeps

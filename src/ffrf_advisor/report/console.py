@@ -272,6 +272,23 @@ def _scene_verdict(v: dict) -> str:
     return f"[{colour}]{v['verdict']}[/{colour}]{why}"
 
 
+def _studies_report(console: Console, s: dict, campbell: dict) -> None:
+    """The stability numbers and the Campbell errors of a verification."""
+    console.print(f"RK4 step limit at rest: {s['rk4_limit_rest']['measured']:.4g} measured, "
+                  f"{s['rk4_limit_rest']['predicted']:.4g} = 2 sqrt 2 / Omega_max", highlight=False)
+    onset = s["divergence_onset"]
+    if onset:
+        console.print(f"softening divergence about axis {onset['axis']}: at {onset['measured']:.4g} rad/time "
+                      f"by simulation, s_crit {onset['s_crit']:.4g}; without cf2 "
+                      + ("bounded" if onset["bounded_without_cf2"] else "NOT bounded")
+                      + ("" if onset.get("bounded_with_geo_stiff") is None else
+                         "; with geo_stiff " + ("bounded" if onset["bounded_with_geo_stiff"] else "NOT bounded")),
+                      highlight=False)
+    errs = campbell["frequency_error"]
+    console.print("Campbell, largest frequency error against the full set: "
+                  + ", ".join(f"{k} {_err(x)}" for k, x in errs.items()), highlight=False)
+
+
 def verification_report(console: Console, d: dict) -> None:
     """The verdict on top, then per scene the errors, drift and speed-up of each set, stability and Campbell."""
     v = d["verdict"]
@@ -293,19 +310,10 @@ def verification_report(console: Console, d: dict) -> None:
                       "yes" if r["meets"] else "[red]no[/red]",
                       "-" if r["speedup"] is None else f"{r['speedup']:.2f}")
         console.print(t)
-    s = d["stability"]
-    console.print(f"RK4 step limit at rest: {s['rk4_limit_rest']['measured']:.4g} measured, "
-                  f"{s['rk4_limit_rest']['predicted']:.4g} = 2 sqrt 2 / Omega_max", highlight=False)
-    onset = s["divergence_onset"]
-    if onset:
-        console.print(f"softening divergence about axis {onset['axis']}: at {onset['measured']:.4g} rad/time "
-                      f"by simulation, s_crit {onset['s_crit']:.4g}; without cf2 "
-                      + ("bounded" if onset["bounded_without_cf2"] else "NOT bounded")
-                      + ("" if onset.get("bounded_with_geo_stiff") is None else
-                         "; with geo_stiff " + ("bounded" if onset["bounded_with_geo_stiff"] else "NOT bounded")),
+    if d["stability"] is None:
+        console.print("quick: no work-precision, stability or Campbell studies (run without --quick for them)",
                       highlight=False)
-    errs = d["campbell"]["frequency_error"]
-    console.print("Campbell, largest frequency error against the full set: "
-                  + ", ".join(f"{k} {_err(x)}" for k, x in errs.items()), highlight=False)
+    else:
+        _studies_report(console, d["stability"], d["campbell"])
     if d["figures"]:
         console.print(f"figures: {len(d['figures'])} files in {Path(d['figures'][0]).parent}", highlight=False)

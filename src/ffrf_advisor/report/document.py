@@ -186,9 +186,12 @@ def verification_section(study: dict) -> Section:
                           ("criterion", study["criterion"]), ("tolerance", _num(study["tolerance"]))]),
               ("table", (("set", "scene", "worst error", "meets", "energy drift", "wall time", "speed-up"), rows))]
     stab = study["stability"]
-    blocks.append(("table", (("stability finding", "measured", "predicted"),
-                             [(k, _num(stab[k]["measured"]), _num(stab[k]["predicted"]))
-                              for k in ("rk4_limit_rest", "rk4_limit_spin", "euler_growth") if k in stab])))
+    if stab is None:
+        blocks.append(("items", ["quick verification: no work-precision, stability or Campbell studies"]))
+    else:
+        blocks.append(("table", (("stability finding", "measured", "predicted"),
+                                 [(k, _num(stab[k]["measured"]), _num(stab[k]["predicted"]))
+                                  for k in ("rk4_limit_rest", "rk4_limit_spin", "euler_growth") if k in stab])))
     for path in study["figures"]:
         if str(path).endswith(".png") and Path(path).is_file():
             blocks.append(("figure", (Path(path).stem.replace("_", " "), Path(path))))

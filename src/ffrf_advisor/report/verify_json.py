@@ -13,7 +13,7 @@ from ..verify.study import Study
 from ..verify.workprecision import pareto
 from .json_out import json_number
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3  # 3: work_precision, stability and campbell null with --quick
 
 
 def _clean(obj):
@@ -52,6 +52,21 @@ def _scene(st: Study, s: Scene, per_s: float) -> dict:
             "verdict": _verdict(verdict)}
 
 
+def _studies(st) -> dict:
+    """work_precision, stability and campbell; null each where ``verify --quick`` left them out."""
+    if st.work_precision is None:
+        return {"work_precision": None, "stability": None, "campbell": None}
+    ver = st.verification
+    return {"work_precision": {"scene": ver.scenes[0].label, "timing": "wall time, minimum over repeats, taken "
+                               "serially on this machine", "points": st.work_precision,
+                               "pareto": pareto(st.work_precision)},
+            "stability": st.stability,
+            "campbell": {"axis_of_error": st.campbell["axis_of_error"] + 1, "speed": st.campbell["speed"],
+                         "frequency_error": st.campbell["frequency_error"], "s_crit": st.campbell["s_crit"],
+                         "speeds": st.campbell["speeds"],
+                         "frequencies": {str(k + 1): v for k, v in st.campbell["by_axis"].items()}}}
+
+
 def study_json(st: Study, source: str) -> dict:
     """The documented JSON of ``verify --json`` (src/ffrf_advisor/schemas/verify.json)."""
     a, ver = st.analysis, st.verification
@@ -72,12 +87,6 @@ def study_json(st: Study, source: str) -> dict:
                      "rhs_evaluations": r.nfev, "failed": r.failed, "reason": r.reason, "speedup": r.speedup}
                     for r in ver.results],
         "verdict": _verdict(ver.verdict),
-        "work_precision": {"scene": ver.scenes[0].label, "timing": "wall time, minimum over repeats, taken serially "
-                           "on this machine", "points": st.work_precision, "pareto": pareto(st.work_precision)},
-        "stability": st.stability,
-        "campbell": {"axis_of_error": st.campbell["axis_of_error"] + 1, "speed": st.campbell["speed"],
-                     "frequency_error": st.campbell["frequency_error"], "s_crit": st.campbell["s_crit"],
-                     "speeds": st.campbell["speeds"],
-                     "frequencies": {str(k + 1): v for k, v in st.campbell["by_axis"].items()}},
+        **_studies(st),
         "figures": list(st.figures),
     })

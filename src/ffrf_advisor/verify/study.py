@@ -27,11 +27,13 @@ CAMPBELL_SETS = ("advised", "I", "III", "IV (full)")
 
 @dataclass(frozen=True)
 class Study:
+    """The verification and the studies around it (None: not run, ``verify --quick``)."""
+
     analysis: Analysis
     verification: Verification
-    work_precision: list[Point]
-    stability: dict
-    campbell: dict
+    work_precision: list[Point] | None
+    stability: dict | None
+    campbell: dict | None
     figures: tuple[str, ...]
 
 
@@ -84,24 +86,28 @@ def stability_studies(a: Analysis, scene: Scene) -> dict:
 
 def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str = "dop853",
               step: float | None = None, rtol: float = 1e-8, repeats: int = 3, directory: Path | None = None,
-              scene_options: SceneOptions = SceneOptions(), criterion: str = "response") -> Study:
+              scene_options: SceneOptions = SceneOptions(), criterion: str = "response", quick: bool = False) -> Study:
     """Everything ``verify`` reports; figures go to ``directory`` when given. The scenes and the verdict cover every
-    axis of ``scenes.scene_axes``; work-precision, stability and drift use the first scene, Campbell all axes."""
+    axis of ``scenes.scene_axes``; work-precision, stability and drift use the first scene, Campbell all axes.
+    ``quick``: the scenes and the verdict only (and their trajectory figures)."""
     scenes = make_scenes(scene_names, a, scene_options)
     a = for_scenes(a, scenes)
     ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion)
     first = scenes[0]
-    points = work_precision(a, first, ver.references[first.label],
-                            tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)
-    stab = stability_studies(a, first)
-    camp = campbell_data(a, default_speed(a))
+    points = stab = camp = None
+    if not quick:
+        points = work_precision(a, first, ver.references[first.label],
+                                tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)
+        stab = stability_studies(a, first)
+        camp = campbell_data(a, default_speed(a))
     figures = () if directory is None else write_figures(a, ver, points, camp, stab, first, Path(directory))
     return Study(a, ver, points, stab, camp, figures)
 
 
-def write_figures(a: Analysis, ver: Verification, points, camp: dict, stab: dict, scene: Scene,
+def write_figures(a: Analysis, ver: Verification, points, camp: dict | None, stab: dict | None, scene: Scene,
                   directory: Path) -> tuple[str, ...]:
-    """trajectories_<scene>_axis<k>, work_precision, drift, stability and campbell, each as PNG and SVG."""
+    """trajectories_<scene>_axis<k>, and unless the studies were left out (quick) work_precision, drift,
+    stability and campbell, each as PNG and SVG."""
     directory.mkdir(parents=True, exist_ok=True)
     unit = a.body.units.time
     paths = []
@@ -111,6 +117,8 @@ def write_figures(a: Analysis, ver: Verification, points, camp: dict, stab: dict
         paths += fig.save(fig.trajectories(ver.references[sc.label].run, model_runs, a.body.sigma_max, unit,
                                            a.body.units.stress, f"{a.body.name}: {sc.label}"),
                           directory, f"trajectories_{sc.name}_axis{sc.axis + 1}")
+    if points is None:
+        return tuple(str(p) for p in paths)
     paths += fig.save(fig.work_precision_chart(points, pareto(points),
                                                f"{a.body.name}: {scene.label}, work-precision (timings serial)"),
                       directory, "work_precision")

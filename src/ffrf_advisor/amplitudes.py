@@ -90,7 +90,8 @@ def check_size(body: FlexibleBody, q: np.ndarray, option: str) -> None:
     """Given amplitudes deflect the body at most MAX_DEFLECTION times its size (theory 6; beyond, the numbers
     overflow long before they mean anything): the mesh's deflection, else the rms deflection of a
     mass-normalised mode, ``q / sqrt(m)``."""
-    deflection = body.fe.max_deflection() if body.fe is not None else 1 / np.sqrt(body.mass)
+    nodal = body.nodal_summary()
+    deflection = nodal.max_deflection if nodal is not None else 1 / np.sqrt(body.mass)
     with np.errstate(over="ignore"):  # an overflow is a ratio of inf, refused below
         ratio = deflection * np.abs(np.asarray(q, float)) / body.largest_dimension()
     p = int(np.argmax(np.where(np.isnan(ratio), np.inf, ratio)))
@@ -103,7 +104,8 @@ def q_max(body: FlexibleBody, opts: AmplitudeOptions = AmplitudeOptions()) -> Am
     """The paper's procedure: q_max,1 = min(q_cap, sigma_allow / sigma_1), q_max,p = q_max,1 lambda_1 / lambda_p."""
     q_cap = opts.q_cap * factor(TMM, body.units, "q")
     sigma_allow = opts.sigma_allow * factor(TMM, body.units, "stress")
-    deflection = body.fe.max_deflection() if body.fe is not None else None
+    nodal = body.nodal_summary()
+    deflection = None if nodal is None else nodal.max_deflection
     if opts.q_max is not None:
         q = np.asarray(opts.q_max, float)
         if q.shape != (body.nf,) or not np.all(np.isfinite(q)) or np.any(q < 0):

@@ -81,6 +81,29 @@ class NodalRotary:
 
 
 @dataclass(frozen=True)
+class NodalSummary:
+    """What the analysis needs of the nodal data, kept where they are not read (a cached body): each mode's
+    largest nodal deflection per unit modal coordinate (theory 6: the deflection cap of q_max), the mesh's
+    largest dimension (the checks of theory 4, the small-deformation ratio), its node count, and whether a
+    stiffness matrix is stored (the basis can be transformed)."""
+
+    max_deflection: np.ndarray
+    largest_dimension: float
+    n_nodes: int
+    stiffness: bool
+
+    def __post_init__(self):
+        object.__setattr__(self, "max_deflection", frozen_array(self.max_deflection))
+
+    def converted(self, src: Units, dst: Units) -> "NodalSummary":
+        return replace(self, max_deflection=self.max_deflection * factor(src, dst, "mode"),
+                       largest_dimension=self.largest_dimension * factor(src, dst, "length"))
+
+    def with_modes(self, ix: np.ndarray) -> "NodalSummary":
+        return replace(self, max_deflection=self.max_deflection[ix])
+
+
+@dataclass(frozen=True)
 class ModalFE:
     """Nodal FE data of a body: mesh, scalar mass Ms (n x n), modes Phi (n, 3, nf), optional K and stress."""
 
@@ -108,6 +131,9 @@ class ModalFE:
         squares = [np.einsum("ikp,ikp->ip", b, b).max(axis=0) for b in
                    (self.Phi[a:a + rows] for a in range(0, len(self.Phi), rows))]
         return np.sqrt(np.max(squares, axis=0))
+
+    def summary(self) -> NodalSummary:
+        return NodalSummary(self.max_deflection(), self.mesh.largest_dimension(), self.mesh.n_nodes, self.K is not None)
 
     def transformed(self, c: np.ndarray, R: np.ndarray) -> "ModalFE":
         """Points x' = R^T (x - c), mode components S' = R^T S, K' = T^T K T with T = kron(1, R)."""
@@ -143,6 +169,12 @@ def _per_mode(a: np.ndarray | None, ix: np.ndarray, axes: int) -> np.ndarray | N
     return a[..., ix] if axes == 1 else a[..., ix, :][..., ix]
 
 
+def _permutation(R: np.ndarray) -> bool:
+    """R only swaps or flips axes (a box's extents are then the same numbers)."""
+    P = np.abs(R)
+    return bool(np.allclose(P, np.round(P), atol=1e-9))
+
+
 @dataclass(frozen=True)
 class StaticCentrifugal:
     """Exact static centrifugal response per principal axis at unit spin (theory 11; ``adequacy``): the
@@ -162,10 +194,9 @@ class StaticCentrifugal:
 
     def permuted(self, R: np.ndarray) -> "StaticCentrifugal | None":
         """The values for the frame turned by R when R only swaps or flips axes, else None (recompute)."""
-        P = np.abs(R)
-        if not np.allclose(P, np.round(P), atol=1e-9):
+        if not _permutation(R):
             return None
-        ix = np.argmax(P, axis=0)  # new axis j is old axis ix[j]
+        ix = np.argmax(np.abs(R), axis=0)  # new axis j is old axis ix[j]
         return StaticCentrifugal(self.compliance[ix], self.sigma[ix])
 
 
@@ -186,6 +217,7 @@ class FlexibleBody:
     fe: ModalFE | None = None
     static_centrifugal: StaticCentrifugal | None = None  # theory 11, from FE data
     geometric: np.ndarray | None = None  # (6, nf, nf) modal geometric stiffness per unit spin^2 (theory 9)
+    nodal: NodalSummary | None = None  # the nodal data's summary where ``fe`` was not read (``nodal_summary``)
 
     def __post_init__(self):
         object.__setattr__(self, "eigenvalues", frozen_array(self.eigenvalues))
@@ -200,6 +232,8 @@ class FlexibleBody:
             raise ValueError(f"geometric: expected shape (6, {nf}, {nf}), got {self.geometric.shape}")
         if self.fe is not None and self.fe.Phi.shape[2] != nf:
             raise ValueError(f"modes: expected {nf} modes, got {self.fe.Phi.shape[2]}")
+        if self.nodal is not None and self.nodal.max_deflection.shape != (nf,):
+            raise ValueError(f"nodal max_deflection: expected shape ({nf},), got {self.nodal.max_deflection.shape}")
 
     # --- derived quantities -------------------------------------------------
     @property
@@ -235,10 +269,16 @@ class FlexibleBody:
         """Eigenfrequencies sqrt(lambda_p) / (2 pi), in 1/time unit of the body."""
         return np.sqrt(np.abs(self.eigenvalues)) * np.sign(self.eigenvalues) / (2 * np.pi)
 
+    def nodal_summary(self) -> NodalSummary | None:
+        """The nodal data's summary: from ``fe`` when it was read, else as the file cached it, else None."""
+        return self.fe.summary() if self.fe is not None else self.nodal
+
     def largest_dimension(self) -> float:
         """Largest extent of the mesh, or of the box with the same mass and principal inertia."""
         if self.fe is not None:
             return self.fe.mesh.largest_dimension()
+        if self.nodal is not None:
+            return self.nodal.largest_dimension
         J = self.integrals.shifted(self.com)
         second = np.linalg.eigvalsh(J.I)
         return float(np.sqrt(12 * np.clip(second, 0, None).max() / self.mass))
@@ -257,7 +297,9 @@ class FlexibleBody:
         moved = np.linalg.norm(c) > 1e-9 * self.largest_dimension()
         static = None if self.static_centrifugal is None or moved else self.static_centrifugal.permuted(R)
         geo = None if self.geometric is None or moved else rotated_pairs(self.geometric, R)
-        body = replace(self, integrals=shifted.rotated(R), fe=fe, static_centrifugal=static, geometric=geo)
+        nodal = self.nodal if fe is None and _permutation(R) else None  # extents are those of the file's axes
+        body = replace(self, integrals=shifted.rotated(R), fe=fe, static_centrifugal=static, geometric=geo,
+                       nodal=nodal)
         return body, c, R
 
     def moved_to_principal_frame(self) -> "FlexibleBody":
@@ -286,7 +328,8 @@ class FlexibleBody:
             self.fe, Phi=self.fe.Phi[:, :, ix], stress_nodal=take(self.fe.stress_nodal, 1),
             rotary=None if self.fe.rotary is None else self.fe.rotary.with_modes(ix))
         return replace(self, integrals=integrals, eigenvalues=self.eigenvalues[ix],
-                       sigma_max=take(self.sigma_max, 1), fe=fe, geometric=take(self.geometric, 2))
+                       sigma_max=take(self.sigma_max, 1), fe=fe, geometric=take(self.geometric, 2),
+                       nodal=None if self.nodal is None else self.nodal.with_modes(ix))
 
     def converted(self, units: Units) -> "FlexibleBody":
         """The same body in other units; every conversion factor is exact up to one rounding."""
@@ -300,4 +343,5 @@ class FlexibleBody:
             fe=None if self.fe is None else self.fe.converted(src, units),
             static_centrifugal=None if self.static_centrifugal is None
             else self.static_centrifugal.converted(src, units),
+            nodal=None if self.nodal is None else self.nodal.converted(src, units),
         )

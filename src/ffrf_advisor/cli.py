@@ -205,8 +205,9 @@ def _mesh_options(eigenvalues: str | None, density: float | None, young: float |
 
 
 def _read(path: Path, eigenvalues: str | None = None, density: float | None = None, fmt: str | None = None,
-          load_fe: bool = True, young: float | None = None, poisson: float | None = None):
-    """Read any format; --eigenvalues/--density/--young/--poisson go to the meshio reader only."""
+          load_fe: bool | str = True, young: float | None = None, poisson: float | None = None):
+    """Read any format; --eigenvalues/--density/--young/--poisson go to the meshio reader only; ``load_fe``
+    "summary": what the analysis needs of the nodal data (io.ffrf_h5.read)."""
     mesh_options = _mesh_options(eigenvalues, density, young, poisson)
     check_reader_options(path, mesh_options, fmt)
     return read_body(path, fmt, load_fe=load_fe, **mesh_options)
@@ -305,7 +306,7 @@ def analyze(body: Path = typer.Argument(..., help="Body file."), speed: Speed = 
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
                             n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
                             excitation)
-    result = run_analysis(_read(body, eigenvalues, density), options)
+    result = run_analysis(_read(body, eigenvalues, density, load_fe="summary"), options)
     if as_json:
         print(json.dumps(analysis_json(result, str(body)), indent=1))
     else:
@@ -373,7 +374,7 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed:
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
                             n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
                             excitation)
-    analyses = [run_analysis(_read(b, eigenvalues, density), options) for b in bodies]
+    analyses = [run_analysis(_read(b, eigenvalues, density, load_fe="summary"), options) for b in bodies]
     data = comparison(analyses, [str(b) for b in bodies])
     if as_json:
         print(json.dumps(data, indent=1))
@@ -535,7 +536,7 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
     options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config,
                             spin_axis=spin_axis, tolerance=tolerance, rules=rules, speed_range=speed_range,
                             excitation=excitation)
-    result = run_analysis(_read(body, eigenvalues, density), options)
+    result = run_analysis(_read(body, eigenvalues, density, load_fe="summary"), options)
     data = {"schema_version": 1, "level": result.advice.level, "terms": list(result.advice.terms),
             **adams_settings(result.advice.terms),
             "warnings": list(result.advice.warnings)}

@@ -31,7 +31,7 @@ def gate_one(path: str, options: Options, max_level: str, read_options: dict | N
 def _gate_record(path: str, options: Options, max_level: str, read_options: dict) -> dict:
     try:
         check_reader_options(path, read_options)
-        result = analysis_json(analyze(read_body(path, load_fe=True, **read_options), options), path)
+        result = analysis_json(analyze(read_body(path, load_fe="summary", **read_options), options), path)
     except Exception as e:  # noqa: BLE001 - one broken body is reported, never ends the run
         message = str(e) if isinstance(e, FFRFError) else f"{path}: unexpected {type(e).__name__}: {str(e)[:300]}"
         return {"file": path, "level": None, "within": False, "error": message, "evidence": [], "warnings": [],

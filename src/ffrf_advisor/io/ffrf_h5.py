@@ -13,7 +13,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .. import __version__
-from ..body import MASS_KINDS, FlexibleBody, ModalFE, NodalRotary, Provenance, StaticCentrifugal
+from ..body import MASS_KINDS, FlexibleBody, ModalFE, NodalRotary, NodalSummary, Provenance, StaticCentrifugal
 from ..errors import BodyFileError
 from ..fe.elements import ELEMENT_TYPES
 from ..fe.material import Material
@@ -100,6 +100,15 @@ def _write_file(body: FlexibleBody, tmp: Path, cache_invariants: bool) -> None:
             _dataset(f.create_group("geometric_stiffness", track_order=True), "G", body.geometric)
         if cache_invariants or body.fe is None:
             _write_integrals(f, body.integrals)
+        if body.nodal_summary() is not None:
+            _write_summary(f.create_group("nodal_summary", track_order=True), body.nodal_summary())
+
+
+def _write_summary(g: h5py.Group, summary: NodalSummary) -> None:
+    _dataset(g, "max_deflection", summary.max_deflection)
+    g.attrs["largest_dimension"] = summary.largest_dimension
+    g.attrs["n_nodes"] = summary.n_nodes
+    g.attrs["stiffness"] = summary.stiffness
 
 
 def _write_fe(f: h5py.File, modes: h5py.Group, stress: h5py.Group | None, fe: ModalFE) -> None:
@@ -280,6 +289,33 @@ def _cache_agrees(r: _Reader, cached: ShapeIntegrals, nodal: ShapeIntegrals) -> 
                    f"a relative difference of {np.abs(a - b).max() / max(scale, 1e-300):.2g}")
 
 
+def _summary(r: _Reader, nf: int) -> NodalSummary:
+    """The cached summary of the nodal data (``body.NodalSummary``): what analyze, gate, compare, settings and info
+    need of them, so those commands read neither the mesh nor the modes."""
+    g = r.node("nodal_summary", h5py.Group)
+    deflection = r.array("nodal_summary/max_deflection", (nf,))
+    size, n, stiffness = (g.attrs.get(k) for k in ("largest_dimension", "n_nodes", "stiffness"))
+    if np.any(deflection < 0):
+        r.fail("nodal_summary/max_deflection", "non-negative deflections")
+    if size is None or np.ndim(size) or not 0 < size < 1e150:
+        r.fail("nodal_summary@largest_dimension", "a positive finite length", repr(size))
+    if not isinstance(n, (int, np.integer)) or n < 1:
+        r.fail("nodal_summary@n_nodes", "a positive integer", repr(n))
+    if not isinstance(stiffness, (bool, np.bool_)):
+        r.fail("nodal_summary@stiffness", "true or false", repr(stiffness))
+    return NodalSummary(deflection, float(size), int(n), bool(stiffness))
+
+
+def _summary_agrees(r: _Reader, cached: NodalSummary, nodal: NodalSummary) -> None:
+    """The cached summary is that of the nodal data (the same rule as the invariants' cache)."""
+    if (cached.n_nodes != nodal.n_nodes or cached.stiffness != nodal.stiffness
+            or abs(cached.largest_dimension - nodal.largest_dimension) > CACHE_TOLERANCE * nodal.largest_dimension
+            or np.abs(cached.max_deflection - nodal.max_deflection).max()
+            > CACHE_TOLERANCE * nodal.max_deflection.max()):
+        r.fail("nodal_summary", "the summary of the nodal data (mesh, modes/Phi, stiffness/K) they cache",
+               "values that differ from them")
+
+
 def _phi(r: _Reader, n: int, nf: int) -> h5py.Dataset:
     ds = r.node("modes/Phi")
     if ds.shape != (n, 3, nf):
@@ -289,13 +325,14 @@ def _phi(r: _Reader, n: int, nf: int) -> h5py.Dataset:
     return ds
 
 
-def read(path: str | os.PathLike, load_fe: bool = False) -> FlexibleBody:
-    """Read a ``.ffrf.h5`` body. Nodal data are read only when needed or ``load_fe`` (and present);
-    the reading runs in a guarded child (io.guard)."""
+def read(path: str | os.PathLike, load_fe: bool | str = False) -> FlexibleBody:
+    """Read a ``.ffrf.h5`` body; the reading runs in a guarded child (io.guard). Nodal data are read when the
+    file has no invariants cache, with ``load_fe`` True, and with ``load_fe="summary"`` (what the analysis
+    needs: the cache and the nodal summary) when the file caches no nodal summary (written before it did)."""
     return guard.run(path, "the HDF5 library", _read_file, path, load_fe)
 
 
-def _read_file(path, load_fe: bool) -> FlexibleBody:
+def _read_file(path, load_fe: bool | str) -> FlexibleBody:
     try:
         f = h5py.File(path, "r")
     except OSError:
@@ -305,7 +342,7 @@ def _read_file(path, load_fe: bool) -> FlexibleBody:
         return _read_open(_Reader(path, f), path, load_fe)
 
 
-def _read_open(r: _Reader, path, load_fe: bool) -> FlexibleBody:
+def _read_open(r: _Reader, path, load_fe: bool | str) -> FlexibleBody:
     name, units = _header(r)
     eigenvalues = r.array("modes/eigenvalues", (_mode_count(r),))
     nf = len(eigenvalues)
@@ -315,18 +352,22 @@ def _read_open(r: _Reader, path, load_fe: bool) -> FlexibleBody:
     has_fe = "modes/Phi" in r.f
     fe = None
     material = _material(r)  # validated whether or not the nodal data are read
-    if (load_fe and has_fe) or "invariants" not in r.f:
+    summary = _summary(r, nf) if "nodal_summary" in r.f else None
+    if (load_fe is True and has_fe) or "invariants" not in r.f or (load_fe == "summary" and has_fe and summary is None):
         if not has_fe:
             r.fail("modes/Phi", "nodal modes (or a cached invariants group)", "missing")
         fe = _read_fe(r, nf, material)
         integrals = fe.integrals()
         if "invariants" in r.f:
             _cache_agrees(r, _cached_integrals(r, nf), integrals)
+        if summary is not None:
+            _summary_agrees(r, summary, fe.summary())
     else:
         integrals = _cached_integrals(r, nf)
     return FlexibleBody(name=name, integrals=integrals, eigenvalues=eigenvalues, units=units,
                         sigma_max=sigma, provenance=_provenance(r, path), fe=fe,
-                        static_centrifugal=_static_centrifugal(r), geometric=_geometric(r, nf))
+                        static_centrifugal=_static_centrifugal(r), geometric=_geometric(r, nf),
+                        nodal=summary if fe is None else None)
 
 
 def _mode_count(r: _Reader) -> int:

@@ -75,7 +75,7 @@ def body_summary(console: Console, body: FlexibleBody, checks: list[Check]) -> N
         fix = ("fix: `ffrf-advisor convert BODY OUT --transform` moves the frame to the CoM and the principal axes "
                "(theory section 4)" if {c.name for c in failed} <= frame
                else "the stiffness is stored: the basis can be transformed (theory section 4)"
-               if body.fe is not None and body.fe.K is not None
+               if body.nodal_summary() is not None and body.nodal_summary().stiffness
                else "no stiffness matrix: results carry the caveat that these assumptions fail")
         console.print(f"[yellow]warning[/yellow]: {len(failed)} assumption(s) fail: "
                       + "; ".join(c.assumption for c in failed) + f" — {fix}")

@@ -160,18 +160,14 @@ def ten_percent(R: np.ndarray, om: np.ndarray) -> float:
     return float(np.sqrt(R @ close @ R))
 
 
-def mixing(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray, sigma_allow: float,
-           amplitude: np.ndarray | None = None) -> float:
-    """Stress the flexible gyroscopic matrix at spin s about a moves between the modes at their amplitude
-    (default q_max) within the response time: ``c_pq = min(transfer_pq, |Gy_pq| T / 2)``
-    (``gyroscopic_transfer``; the resonant growth caps it), each released mode q moving
-    ``R_q = sum_p sigma_p c_pq amplitude_q`` (or the deflection ``|c_q| amplitude_q`` without stress data),
-    the R_q combined by the ten-percent rule over their frequencies, over the scale of verify (at least
-    FLOOR of sigma_allow or of |q_max|)."""
-    amplitude = np.abs(q_max) if amplitude is None else amplitude
+def moved_by_mixing(body: FlexibleBody, a: np.ndarray, s: float, amplitude: np.ndarray) -> np.ndarray | None:
+    """``R_q``, what mode q released from ``amplitude_q`` at rest moves into the other modes within the response
+    time T at spin s about a (``mixing``): ``sum_p sigma_p c_pq amplitude_q``, or ``|c_q| amplitude_q`` without
+    stress data, with ``c_pq = min(transfer_pq, |Gy_pq| T / 2)``; None where nothing mixes (one mode, no spin,
+    no W3)."""
     nf = body.nf
     if nf < 2 or s <= 0 or "W3" in body.integrals.missing:
-        return 0.0
+        return None
     W3k = body.integrals.W3().reshape(3, nf, nf)
     Gy = 2 * s * np.einsum("k,krs->sr", a, W3k)
     om = np.sqrt(np.abs(body.eigenvalues))
@@ -179,10 +175,32 @@ def mixing(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray, sigma
     c = np.minimum(gyroscopic_transfer(om, Gy), np.abs(Gy) * T / 2)
     np.fill_diagonal(c, 0.0)
     if body.sigma_max is None:
-        moved = np.linalg.norm(c, axis=0) * amplitude
-        return ten_percent(moved, om) / max(np.linalg.norm(amplitude), FLOOR * np.linalg.norm(q_max), 1e-300)
+        return np.linalg.norm(c, axis=0) * amplitude
+    return (np.asarray(body.sigma_max) @ c) * amplitude
+
+
+def mixing(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray, sigma_allow: float,
+           amplitude: np.ndarray | None = None) -> float:
+    """Stress the flexible gyroscopic matrix at spin s about a moves between the modes at their amplitude
+    (default q_max) within the response time (``moved_by_mixing``; the resonant growth caps the transfer), the
+    released modes' R_q combined by the ten-percent rule over their frequencies, over the scale of verify (at
+    least FLOOR of sigma_allow or of |q_max|)."""
+    amplitude = np.abs(q_max) if amplitude is None else amplitude
+    R = moved_by_mixing(body, a, s, amplitude)
+    if R is None:
+        return 0.0
+    om = np.sqrt(np.abs(body.eigenvalues))
+    if body.sigma_max is None:
+        return ten_percent(R, om) / max(np.linalg.norm(amplitude), FLOOR * np.linalg.norm(q_max), 1e-300)
     sigma = np.asarray(body.sigma_max)
-    return ten_percent((sigma @ c) * amplitude, om) / max(sigma @ amplitude, FLOOR * sigma_allow, 1e-300)
+    return ten_percent(R, om) / max(sigma @ amplitude, FLOOR * sigma_allow, 1e-300)
+
+
+def most_mixed_mode(body: FlexibleBody, a: np.ndarray, s: float, q_max: np.ndarray) -> int:
+    """The mode whose release from q_max the spin mixes most into the others (0-based; mode 1 when none mixes):
+    the worst single released mode of the ``mixing`` prediction."""
+    R = moved_by_mixing(body, a, s, np.abs(q_max))
+    return 0 if R is None or not np.any(R > 0) else int(np.argmax(R))
 
 
 def _stress(body: FlexibleBody, q: np.ndarray) -> float:

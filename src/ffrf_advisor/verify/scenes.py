@@ -13,12 +13,12 @@ import numpy as np
 
 from ..analysis import Analysis
 from ..errors import FFRFError
-from ..predict import response_time
+from ..predict import most_mixed_mode, response_time
 from ..sim.loads import LoadProgram, Loads
 from ..units import TIME
 
-SCENES = ("free-spin", "spin-up", "torque-pulse", "minor-axis")
-ABOUT_AN_AXIS = ("free-spin", "spin-up", "torque-pulse")  # run about each axis of scene_axes; minor-axis is not
+SCENES = ("free-spin", "mode-release", "spin-up", "torque-pulse", "minor-axis")
+ABOUT_AN_AXIS = ("free-spin", "mode-release", "spin-up", "torque-pulse")  # about each axis of scene_axes
 
 
 @dataclass(frozen=True)
@@ -127,6 +127,21 @@ def free_spin(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
                  text="free spin, modes at q_max (worst sign pattern)")
 
 
+def mode_release(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
+    """Steady spin about a principal axis, one mode released from its q_max, the others at rest (a knock on the
+    spinning body): the mode whose stress the gyroscopic coupling moves most into the others
+    (``predict.most_mixed_mode``), the single-mode case the advice's mixing prediction claims."""
+    k = _axis(a, opts, deformation_axis(a))
+    s = opts.speed * TIME[a.body.units.time] if opts.speed is not None else default_speed(a)
+    q_max = np.asarray(a.amplitudes.q_max)
+    p = most_mixed_mode(a.body, np.eye(3)[k], s, q_max)
+    q0 = np.zeros(a.body.nf)
+    q0[p] = q_max[p]
+    T = _seconds(a, opts.duration) or response_time(1 / _first_period(a), s)
+    return Scene("mode-release", k, T, s * np.eye(3)[k], q0, np.zeros(a.body.nf), speed=s,
+                 text=f"steady spin, mode {p + 1} released from q_max")
+
+
 def spin_up(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
     """Rotation prescribed about a body axis from rest to the speed over the ramp time, then held."""
     k = _axis(a, opts, deformation_axis(a))
@@ -165,7 +180,7 @@ def minor_axis(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
                  text=f"spin about the minor axis with a 1 % wobble, modal damping {zeta:g}")
 
 
-BUILDERS = {"free-spin": free_spin, "spin-up": spin_up, "torque-pulse": torque_pulse, "minor-axis": minor_axis}
+BUILDERS = {"free-spin": free_spin, "mode-release": mode_release, "spin-up": spin_up, "torque-pulse": torque_pulse, "minor-axis": minor_axis}
 
 
 def make_scene(name: str, a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:

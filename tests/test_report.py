@@ -186,6 +186,12 @@ def test_a_verification_is_run_or_passed_in(tmp_path):
     assert runner.invoke(app, ["report", str(body), "--speed", "1rad/s", "--verification",
                                str(tmp_path / "v.json"), "-o", str(out), "--force"]).exit_code == 0
     assert _parse(out).tags.count("figure") == page.tags.count("figure")
+    quick = runner.invoke(app, ["verify", str(body), "--scene", "free-spin", "--repeat", "1", "--speed", "1rad/s",
+                                "--quick", "--json"])
+    (tmp_path / "q.json").write_text(quick.stdout)  # the studies null: the report says they were left out
+    assert runner.invoke(app, ["report", str(body), "--speed", "1rad/s", "--verification", str(tmp_path / "q.json"),
+                               "-o", str(out), "--force"]).exit_code == 0
+    assert "quick verification: no work-precision, stability or Campbell studies" in " ".join(_parse(out).text)
 
 
 def test_a_verification_embeds_only_the_pngs_beside_its_json(tmp_path):

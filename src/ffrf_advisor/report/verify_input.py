@@ -8,14 +8,16 @@ from pathlib import Path
 from ..errors import FFRFError
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+SCHEMA_VERSION = 3  # of `verify --json` (report.verify_json); 3: work_precision, stability, campbell null with --quick
+READABLE = (2, SCHEMA_VERSION)  # version 2 is version 3 without the nulls
 
 
 def read_verification(path: Path) -> dict:
     """The verify JSON at ``path`` with its figures resolved by ``figures_beside``."""
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-        if not isinstance(data, dict) or data.get("schema_version") != 2 or "verdict" not in data:
-            raise ValueError("not the JSON of `verify --json` (schema_version 2)")
+        if not isinstance(data, dict) or data.get("schema_version") not in READABLE or "verdict" not in data:
+            raise ValueError(f"not the JSON of `verify --json` (schema_version {' or '.join(map(str, READABLE))})")
     except (OSError, ValueError) as e:
         raise FFRFError(f"{path}: --verification: expected the JSON of `verify --json`, got {e}") from None
     figures = data.get("figures")

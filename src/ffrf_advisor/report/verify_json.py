@@ -12,8 +12,8 @@ from ..verify.scenes import Scene
 from ..verify.study import Study
 from ..verify.workprecision import pareto
 from .json_out import json_number
+from .verify_input import SCHEMA_VERSION
 
-SCHEMA_VERSION = 3  # 3: work_precision, stability and campbell null with --quick
 
 
 def _clean(obj):

@@ -118,7 +118,15 @@ def main(version: bool = typer.Option(False, "--version", callback=_version, is_
              False, "--follow-outside", help="Follow references (HDF5 external links, XDMF data) to files "
                                              "outside the body file's folder.")):
     """ffrf-advisor: guideline advisor for flexible bodies in the floating frame of reference."""
+    _fit_consoles()
     limits.follow_outside(follow_outside)
+
+
+def _fit_consoles() -> None:
+    """The consoles' width as the terminal (or COLUMNS) says at this run, not as it was when the module was
+    imported (a process that runs the CLI more than once: tests, notebooks)."""
+    out.width = Console(emoji=False).width
+    err.width = Console(stderr=True, emoji=False).width
 
 
 @app.command()

@@ -437,3 +437,14 @@ def test_prescribed_steady_spin_settles_at_the_static_centrifugal_deflection(bod
                                               for e in np.eye(body.nf)]).T  # Omega^2 - s^2 Kc
     q_static = np.linalg.solve(K, f0)
     assert np.abs(run.y[-1, 7:7 + body.nf] - q_static).max() < 1e-6 * np.abs(q_static).max()
+
+
+def test_energy_and_momentum_of_a_stack_of_states_equal_those_of_each(bodies):
+    """output.summary and the drift curves evaluate every sample at once: the same numbers as state by state."""
+    body = bodies["beam"]
+    rng = np.random.default_rng(3)
+    model = build_model(body, FULL)
+    ys = np.array([initial_state(model, w, q, qd) for q, qd, w in (_state(rng, body) for _ in range(7))])
+    assert np.allclose(eq.energy(model, ys), [eq.energy(model, y) for y in ys], rtol=1e-13, atol=0)
+    assert np.allclose(eq.angular_momentum(model, ys), [eq.angular_momentum(model, y) for y in ys], rtol=1e-13,
+                       atol=0)

@@ -43,8 +43,8 @@ def _identity_times(c: np.ndarray) -> np.ndarray:
 
 
 def split(y: np.ndarray, nf: int):
-    """(p, w, q, q') views of the state vector."""
-    return y[:4], y[4:7], y[N_ROT:N_ROT + nf], y[N_ROT + nf:N_ROT + 2 * nf]
+    """(p, w, q, q') views of the state vector (or of the last axis of a stack of states)."""
+    return y[..., :4], y[..., 4:7], y[..., N_ROT:N_ROT + nf], y[..., N_ROT + nf:N_ROT + 2 * nf]
 
 
 def quaternion_rate(p: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -143,19 +143,21 @@ def rhs(m: Model, t: float, y: np.ndarray, tau=None, fext=None, prescribed=None)
     return np.concatenate((quaternion_rate(p, w), wd, qd, qdd))
 
 
-def energy(m: Model, y: np.ndarray) -> float:
-    """Kinetic plus strain energy of the term set's own model (theory section 5)."""
+def energy(m: Model, y: np.ndarray) -> float | np.ndarray:
+    """Kinetic plus strain energy of the term set's own model (theory section 5); of each state of a stack."""
     _, w, q, qd = split(y, m.nf)
-    T = 0.5 * w @ inertia(m, q) @ w + 0.5 * qd @ qd
+    T = 0.5 * np.einsum("...i,...ij,...j->...", w, inertia(m, q), w) + 0.5 * np.sum(qd * qd, axis=-1)
     if m.on("coupling"):
-        T += w @ coupling_matrix(m, q) @ qd
-    return float(T + 0.5 * q @ (m.eigenvalues * q))
+        T = T + np.einsum("...k,...ks,...s->...", w, coupling_matrix(m, q), qd)
+    E = T + 0.5 * np.sum(q * (m.eigenvalues * q), axis=-1)
+    return float(E) if np.ndim(E) == 0 else E
 
 
-def angular_momentum(m: Model, y: np.ndarray) -> float:
-    """``|H| = |I_TT w + C q'|`` (the inertial-frame norm equals the body-frame one)."""
+def angular_momentum(m: Model, y: np.ndarray) -> float | np.ndarray:
+    """``|H| = |I_TT w + C q'|`` (the inertial-frame norm equals the body-frame one); of each state of a stack."""
     _, w, q, qd = split(y, m.nf)
-    H = inertia(m, q) @ w
+    H = mv(inertia(m, q), w)
     if m.on("coupling"):
-        H = H + coupling_matrix(m, q) @ qd
-    return float(np.linalg.norm(H))
+        H = H + mv(coupling_matrix(m, q), qd)
+    n = np.linalg.norm(H, axis=-1)
+    return float(n) if np.ndim(n) == 0 else n

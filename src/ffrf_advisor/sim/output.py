@@ -26,8 +26,7 @@ def columns(nf: int) -> list[str]:
 def table(model: Model, run: Run) -> np.ndarray:
     """One row per sample in the order of ``columns``."""
     y = run.y
-    E = np.array([energy(model, s) for s in y])
-    H = np.array([angular_momentum(model, s) for s in y])
+    E, H = energy(model, np.asarray(y)), angular_momentum(model, np.asarray(y))
     return np.column_stack([run.t, y[:, 4:7], y[:, :4], y[:, N_ROT:], E, H])
 
 
@@ -69,8 +68,7 @@ def _drift(values: np.ndarray) -> float | None:
 
 def summary(model: Model, run: Run, units: str) -> dict:
     """The JSON summary of ``simulate --json`` (docs/simulate.md)."""
-    E = np.array([energy(model, s) for s in run.y])
-    H = np.array([angular_momentum(model, s) for s in run.y])
+    E, H = energy(model, run.y), angular_momentum(model, run.y)
     p_norm = np.linalg.norm(run.y[:, :4], axis=1) if len(run.y) else np.ones(1)
     return {
         "schema_version": SUMMARY_SCHEMA_VERSION,

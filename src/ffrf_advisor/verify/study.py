@@ -64,7 +64,7 @@ def drift_curves(a: Analysis, scene: Scene) -> dict:
     for label, terms in LEVEL_SETS.items():
         model = build_model(a.body, terms, scene.damping)
         run = run_scene(model, scene, "dop853", rtol=1e-10)
-        E = np.array([energy(model, y) for y in run.y])
+        E = energy(model, run.y)
         curves[label] = (run.t, np.abs(E - E[0]) / abs(E[0]) if E[0] else np.zeros_like(E))
     return curves
 

@@ -83,7 +83,7 @@ def main() -> None:
     per_evaluation(max(args.repeat, 3))
     new = timed([sys.executable, "-m", "ffrf_advisor", *VERIFY], args.repeat)
     old = timed([sys.executable, "-c", OLD_PATH, *VERIFY], args.repeat)
-    print(f"verify beam at 300 rad/s (4 scenes, term sets, work-precision, stability, Campbell), process wall, "
+    print(f"verify beam at 300 rad/s (default scenes about both stable axes, term sets, work-precision, stability, Campbell), process wall, "
           f"minimum of {args.repeat}: compiled {new:.1f} s, former path {old:.1f} s: {old / new:.1f}x "
           "(goal >= 10)")
     if args.sweep:

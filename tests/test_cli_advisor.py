@@ -333,3 +333,22 @@ def test_gate_names_each_file_once(tmp_path):
     squashed = "".join(result.stdout.split())  # a long temporary path may be folded by the console
     assert squashed.count(str(bad)) == 1 and squashed.count(str(SAMPLE)) == 1
     assert "ERROR" in squashed and "expected" in squashed and "ok" in squashed
+
+
+def _blas_threads() -> list[int]:
+    import numpy  # noqa: F401 - loads the BLAS that threadpoolctl looks for
+    from threadpoolctl import threadpool_info
+    return [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+
+
+def test_gate_workers_use_one_blas_thread_each():
+    """gate --jobs N: BLAS's own threads on top of N workers made --jobs 2 slower than --jobs 1 (issue 24,
+    item 7; benchmarks/bench_gate.py measures the ratio)."""
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    from ffrf_advisor.gate import _worker
+
+    with ProcessPoolExecutor(max_workers=1, initializer=_worker, initargs=(os.getpid(),)) as pool:
+        threads = pool.submit(_blas_threads).result()
+    assert threads and set(threads) == {1}, threads

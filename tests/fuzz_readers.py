@@ -140,6 +140,16 @@ def mutate_json(data: bytes) -> bytes:
     return data.replace(b'"name": "', b'"name": "' + b"\\u001b[31m" + b"y" * LONG, 1)
 
 
+def counted(done, cases: int) -> dict:
+    """The counts of a harness run (a subprocess.CompletedProcess), after asserting that it ran every case and that
+    none failed (a crash of the harness itself is its exit status)."""
+    assert done.returncode == 0, done.stderr[-2000:]
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    assert all(report["counts"][k] == 0 for k in FAILURES), report
+    assert sum(report["counts"].values()) == cases
+    return report["counts"]
+
+
 class CaseTimeout(BaseException):
     """A case over its time: not an OSError (TimeoutError is one, and readers turn those into one line)."""
 

@@ -21,7 +21,7 @@ from ffrf_advisor.io import write_body
 from ffrf_advisor.io.calculix import write_deck
 
 from . import fuzz_readers
-from .fuzz_readers import damage
+from .fuzz_readers import counted, damage
 
 CASES = 600  # per reader (each read and analysed in a guarded child)
 HARNESS = Path(__file__).resolve().parent / "fuzz_readers.py"
@@ -62,18 +62,8 @@ def test_reader_survives_thousands_of_damaged_files(seeds, name):
         pytest.skip("CalculiX (ccx) is not installed")
     done = subprocess.run([sys.executable, str(HARNESS), str(d / name), str(CASES), "20261121",
                            json.dumps(options[name])], capture_output=True, text=True, timeout=1800)
-    counts = _counted(done, CASES)
+    counts = counted(done, CASES)
     assert counts["one_line_error"] > CASES // 4
-
-
-def _counted(done: subprocess.CompletedProcess, cases: int) -> dict:
-    """The harness's counts, after asserting that it ran every case and that none failed (a crash of the
-    harness itself is its exit status)."""
-    assert done.returncode == 0, done.stderr[-2000:]
-    report = json.loads(done.stdout.strip().splitlines()[-1])
-    assert all(report["counts"][k] == 0 for k in fuzz_readers.FAILURES), report
-    assert sum(report["counts"].values()) == cases
-    return report["counts"]
 
 
 NASTRAN = Path(__file__).resolve().parents[2] / "shared" / "data" / "nastran" / "beam_modes_m1.op2"
@@ -87,7 +77,7 @@ def test_the_nastran_reader_survives_hundreds_of_damaged_files():
         pytest.skip(f"the shared Nastran file is not at {NASTRAN}")
     done = subprocess.run([sys.executable, str(HARNESS), str(NASTRAN), str(OP2_CASES), "20261122"],
                           capture_output=True, text=True, timeout=1800)
-    _counted(done, OP2_CASES)
+    counted(done, OP2_CASES)
 
 
 def test_damaged_files_through_the_cli_give_one_line_and_exit_2(seeds, tmp_path):

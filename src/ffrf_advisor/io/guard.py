@@ -243,8 +243,7 @@ def _read_exact(fd: int, size: int, deadline: float, most: int) -> bytearray:
     buffer = bytearray(size)
     view, done = memoryview(buffer), 0
     while done < size:
-        left = deadline - time.monotonic()
-        if left <= 0 or not select.select([fd], [], [], None if left == float("inf") else left)[0]:
+        if not _readable(fd, deadline):
             raise _Late
         got = os.readv(fd, [view[done:]])
         if not got:
@@ -291,12 +290,17 @@ def _address_space() -> int:
         return 0
 
 
+def _readable(fd: int, deadline: float) -> bool:
+    """Wait until ``fd`` has data (or its end); False past the ``deadline`` (time.monotonic)."""
+    left = deadline - time.monotonic()
+    return left > 0 and bool(select.select([fd], [], [], None if left == float("inf") else left)[0])
+
+
 def _collect(fd: int, deadline: float) -> bytes | None:
     """Everything the child writes until it closes the pipe; None past the deadline."""
     chunks = []
     while True:
-        left = deadline - time.monotonic()
-        if left <= 0 or not select.select([fd], [], [], None if left == float("inf") else left)[0]:
+        if not _readable(fd, deadline):
             return None
         chunk = os.read(fd, 1 << 20)
         if not chunk:

@@ -99,6 +99,7 @@ def integrate(model: Model, y0: np.ndarray, t_end: float, method: str = "rk4", s
     if method not in INTEGRATORS:
         raise ValueError(f"integrator {method!r}: expected one of {', '.join(INTEGRATORS)}")
     y0 = np.array(y0, float)
+    program = loads.compiled()
     if method in FIXED:
         if step is None or not step > 0:
             raise ValueError(f"integrator {method}: needs a positive --step")
@@ -107,11 +108,10 @@ def integrate(model: Model, y0: np.ndarray, t_end: float, method: str = "rk4", s
         nsteps = every * int(np.ceil(nsteps / every))
         if method in ("rk4", "rk4-lie") and loads.none:
             return _rk4_compiled(model, y0, step, nsteps, every, method == "rk4-lie", progress)
-        if method == "midpoint" and loads.compiled() is not None:
-            return _midpoint_compiled(model, y0, step, nsteps, every, loads.compiled())
+        if method == "midpoint" and program is not None:
+            return _midpoint_compiled(model, y0, step, nsteps, every, program)
         return _fixed_python(model, y0, step, nsteps, every, method, loads, progress)
     output_step = output_step or t_end / 1000
-    program = loads.compiled()
     if method == "dop853" and program is not None:
         return _dop853_compiled(model, y0, t_end, rtol, atol, output_step, program)
     return _adaptive(model, y0, t_end, method, rtol, atol, output_step, loads)
@@ -141,19 +141,22 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
                failed=code != 0, t_fail=done * h if code else None, reason=REASONS.get(code, ""), step=h)
 
 
+def _compiled_model(m: Model) -> tuple:
+    """The model as the compiled loops read it (``kernels.rhs_loaded``), with its scratch workspace."""
+    from . import kernels
+    return (m.flags, m.I0, m.Ibar, m.Sbar, m.W3k, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf))
+
+
 MIDPOINT_FAILURES = {1: REASONS[1], 2: REASONS[2], 3: "Newton iteration did not converge"}
 
 
 def _midpoint_compiled(model, y0, h, nsteps, every, program) -> Run:
     """The implicit midpoint rule in compiled code (sim.midpoint; ``_midpoint_step`` is its reference)."""
-    from . import kernels, midpoint
-    m = model
+    from . import midpoint
     out = np.empty((nsteps // every + 1, len(y0)))
     start = time.perf_counter()
-    steps, nfev, code = midpoint.midpoint_loop(
-        y0, h, nsteps, every, out,
-        (m.flags, m.I0, m.Ibar, m.Sbar, m.W3k, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf)),
-        program, np.zeros(m.nf))
+    steps, nfev, code = midpoint.midpoint_loop(y0, h, nsteps, every, out, _compiled_model(model), program,
+                                               np.zeros(model.nf))
     wall = time.perf_counter() - start
     rows = (steps - 1 if code else steps) // every + 1
     return Run("midpoint", np.arange(rows) * every * h, out[:rows], nfev, steps, wall, code != 0,
@@ -230,17 +233,14 @@ DOP853_FAILURES = {1: "required step size is less than spacing between numbers",
 
 def _dop853_compiled(model, y0, t_end, rtol, atol, output_step, program) -> Run:
     """DOP853 in compiled code (sim.dop853), sampled on the output grid as it goes."""
-    from . import dop853, kernels
-    m = model
+    from . import dop853
     t = _output_times(t_end, output_step)
     out = np.empty((len(t), len(y0)))
     budget = work_budget(model, y0, t_end)
     atol = np.broadcast_to(np.asarray(atol, float), y0.shape).copy()
     start = time.perf_counter()
     rows, nfev, steps, code, t_reached = dop853.integrate_dop853(
-        y0, float(t_end), float(rtol), atol, t, budget, out,
-        (m.flags, m.I0, m.Ibar, m.Sbar, m.W3k, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf)),
-        program, np.zeros(m.nf))
+        y0, float(t_end), float(rtol), atol, t, budget, out, _compiled_model(model), program, np.zeros(model.nf))
     wall = time.perf_counter() - start
     reason = (f"work budget of {budget} right-hand sides spent at t = {t_reached:.6g} (stiff, or blowing up)"
               if code == dop853.OVER_BUDGET else DOP853_FAILURES.get(code, ""))

@@ -8,8 +8,8 @@ import scipy.sparse as sp
 
 from .fe.material import Material
 from .fe.mesh import Mesh
-from .invariants import (CHUNK_BYTES, RotaryIntegrals, ShapeIntegrals, frozen_array, principal_axes, rotary_integrals,
-                         shape_integrals)
+from .invariants import (RotaryIntegrals, ShapeIntegrals, block_rows, frozen_array, largest_squares, principal_axes,
+                         rotary_integrals, shape_integrals)
 from .units import TMM, Units, factor
 
 MASS_KINDS = ("consistent", "lumped", "unknown")
@@ -127,10 +127,9 @@ class ModalFE:
     def max_deflection(self) -> np.ndarray:
         """Largest nodal displacement magnitude of each mode at unit modal coordinate (nf,), over blocks of
         nodal rows (no temporary the size of Phi)."""
-        rows = max(1, CHUNK_BYTES // max(1, self.Phi[:1].nbytes))
-        squares = [np.einsum("ikp,ikp->ip", b, b).max(axis=0) for b in
-                   (self.Phi[a:a + rows] for a in range(0, len(self.Phi), rows))]
-        return np.sqrt(np.max(squares, axis=0))
+        rows = block_rows(self.Phi.shape[2])
+        return np.sqrt(np.max([largest_squares(self.Phi[a:a + rows]) for a in range(0, len(self.Phi), rows)],
+                              axis=0))
 
     def summary(self) -> NodalSummary:
         return NodalSummary(self.max_deflection(), self.mesh.largest_dimension(), self.mesh.n_nodes, self.K is not None)

@@ -181,39 +181,92 @@ class ShapeIntegrals:
 
 
 def shape_integrals(X: np.ndarray, Ms: sp.sparray, Phi, rotary: RotaryIntegrals | None = None) -> ShapeIntegrals:
-    """Shape integrals from node coordinates X (n, 3), scalar mass Ms (n, n) and modes Phi (n, 3, nf), with
-    the sums of the nodes that carry rotary inertia (``rotary_integrals``, theory 3b) when there are any.
-
-    One sparse product Y = Ms Phi and one dense product Phi^T Y, both over
-    blocks of nodal rows so that the extra memory is one block of Y.
-    ``Phi`` may be any array-like with row slicing (e.g. an h5py dataset).
-    """
-    n, _, nf = Phi.shape
+    """Shape integrals from node coordinates X (n, 3), scalar mass Ms (n, n) and modes Phi (n, 3, nf) in
+    memory, with the sums of the nodes that carry rotary inertia (``rotary_integrals``, theory 3b)."""
     Ms = sp.csr_array(Ms)
+    return nodal_pass(X, lambda a, b: Ms[a:b], lambda a, b: Phi[a:b], Phi.shape[2], rotary).integrals
+
+
+@dataclass(frozen=True)
+class NodalPass:
+    """What one pass over the nodes gives: the shape integrals (theory 3) and each mode's largest nodal
+    deflection per unit modal coordinate (theory 6)."""
+
+    integrals: ShapeIntegrals
+    max_deflection: np.ndarray
+
+
+SPAN = 3  # row blocks of Phi one block of Ms rows may reach before its columns are taken block by block
+
+
+def block_rows(nf: int, multiple: int = 1) -> int:
+    """Nodal rows per block: about CHUNK_BYTES of Phi, a whole number of ``multiple`` (a file's chunk rows)."""
+    rows = max(1, CHUNK_BYTES // (8 * 3 * nf))
+    return max(multiple, rows // multiple * multiple)
+
+
+def nodal_pass(X: np.ndarray, Ms_rows, Phi_rows, nf: int, rotary: RotaryIntegrals | None = None,
+               rows: int | None = None) -> NodalPass:
+    """Shape integrals and deflection maxima over blocks of nodal rows, never holding Phi whole.
+
+    ``Ms_rows(a, b)`` gives the rows a:b of Ms (CSR, n columns) and
+    ``Phi_rows(a, b)`` the modes of nodes a:b as (b - a, 3, nf) floats: from
+    memory or from a file's chunks (io.ffrf_h5), validated by the caller. For
+    each block, ``Y = Ms[a:b] Phi`` over the node range its columns reach (a
+    band matrix: the block and its neighbours; a wider reach block by block),
+    then ``Phi^T Ms Phi += Phi[a:b]^T Y`` and ``[1, X]^T Ms Phi += [1, X][a:b]^T Y``.
+    Extra memory: a few blocks, whatever n.
+    """
+    n = len(X)
+    rows = rows or block_rows(nf)
     Xe = np.column_stack([np.ones(n), X])  # [1, x1, x2, x3]
-    MX = Ms @ Xe
-    if isinstance(Phi, np.ndarray):
-        Phi2 = Phi.reshape(n, 3 * nf)
-    else:
-        Phi2 = np.asarray(Phi[...], dtype=float).reshape(n, 3 * nf)
+    E = np.zeros((4, 4))  # [1, X]^T Ms [1, X]: mass, first moment, second moments
     moments = np.zeros((4, 3 * nf))  # [1, X]^T Ms Phi
     Sbar = np.zeros((3 * nf, 3 * nf))
-    rows = max(1, CHUNK_BYTES // (8 * 3 * nf))
+    squares = np.zeros(nf)
     for a in range(0, n, rows):
         b = min(n, a + rows)
-        Y = Ms[a:b] @ Phi2
-        Sbar += Phi2[a:b].T @ Y
+        Msi = sp.csr_array(Ms_rows(a, b))
+        Phi_i, Y = _block_product(Msi, Phi_rows, a, b, rows, nf)
+        Sbar += Phi_i.T @ Y
         moments += Xe[a:b].T @ Y
+        E += Xe[a:b].T @ (Msi @ Xe)
+        squares = np.maximum(squares, largest_squares(Phi_i.reshape(-1, 3, nf)))
     Sbar = 0.5 * (Sbar + Sbar.T)
-    return ShapeIntegrals(
-        mass=MX[:, 0].sum(),
-        first_moment=Xe[:, 0] @ MX[:, 1:],
-        I=_sym(X.T @ MX[:, 1:]),
+    integrals = ShapeIntegrals(
+        mass=E[0, 0],
+        first_moment=E[0, 1:],
+        I=_sym(E[1:, 1:]),
         Ibar=moments[1:].reshape(3, 3, nf),
         Sbar=Sbar.reshape(3, nf, 3, nf).transpose(0, 2, 1, 3),
         mode_sum=moments[0].reshape(3, nf),
         rotary=rotary,
     )
+    return NodalPass(integrals, np.sqrt(squares))
+
+
+def largest_squares(Phi: np.ndarray) -> np.ndarray:
+    """max over the nodes of |S_p(node)|^2 for modes Phi (k, 3, nf): squared largest deflections (theory 6)."""
+    return np.einsum("ikp,ikp->ip", Phi, Phi).max(axis=0, initial=0.0)
+
+
+def _block_product(Msi: sp.csr_array, Phi_rows, a: int, b: int, rows: int, nf: int) -> tuple[np.ndarray, np.ndarray]:
+    """(Phi[a:b], Ms[a:b] Phi) as (b - a, 3 nf) arrays; Phi read over the node range the block's columns reach
+    when it spans at most SPAN blocks, else over the column blocks it touches, one at a time."""
+    cols = Msi.indices
+    lo, hi = (min(a, int(cols.min())), max(b, int(cols.max()) + 1)) if cols.size else (a, b)
+    if hi - lo <= SPAN * rows:
+        reach = np.asarray(Phi_rows(lo, hi), float).reshape(hi - lo, 3 * nf)
+        shifted = sp.csr_array((Msi.data, cols - lo, Msi.indptr), shape=(b - a, hi - lo))
+        return reach[a - lo:b - lo], shifted @ reach
+    Y = np.zeros((b - a, 3 * nf))
+    row = np.repeat(np.arange(b - a), np.diff(Msi.indptr))
+    for j in np.unique(cols // rows):
+        c0, c1 = j * rows, min(j * rows + rows, Msi.shape[1])
+        m = (cols >= c0) & (cols < c1)
+        part = sp.csr_array((Msi.data[m], (row[m], cols[m] - c0)), shape=(b - a, c1 - c0))
+        Y += part @ np.asarray(Phi_rows(c0, c1), float).reshape(c1 - c0, 3 * nf)
+    return np.asarray(Phi_rows(a, b), float).reshape(b - a, 3 * nf), Y
 
 
 def I0(I: np.ndarray) -> np.ndarray:

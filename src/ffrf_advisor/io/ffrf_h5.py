@@ -6,6 +6,7 @@ a file with cached invariants never touches the mode matrix.
 from __future__ import annotations
 
 import os
+from contextlib import contextmanager
 from pathlib import Path
 
 import h5py
@@ -18,17 +19,18 @@ from ..errors import BodyFileError
 from ..fe.elements import ELEMENT_TYPES
 from ..fe.material import Material
 from ..fe.mesh import Mesh
-from ..invariants import RotaryIntegrals, ShapeIntegrals
+from ..invariants import SPAN, NodalPass, RotaryIntegrals, ShapeIntegrals, block_rows, nodal_pass
 from ..units import Units, UnitsError
 from . import Format, register
 from .atomic import atomic_path
 from . import guard
-from .limits import Budget, check_hdf5_references
+from .limits import TREE_BYTES_PER_BYTE, Budget, check_hdf5_references
 
 FORMAT_NAME = "ffrf-body"
 VERSION = 3  # 2: optional /material, /static_centrifugal, /geometric_stiffness; 3: optional /rotary (docs/format.md)
 SUPPORTED_VERSIONS = (1, 2, 3)
 NODE_CHUNK = 4096  # nodal rows per HDF5 chunk
+CHILD_COPIES = 2.0  # bytes of the process tree per byte read and kept in the reading child (``kept_in_child``)
 
 
 # ---------------------------------------------------------------- writing
@@ -141,6 +143,17 @@ class _Reader:
 
     def __init__(self, path, f: h5py.File):
         self.path, self.f, self.budget = path, f, Budget(path)
+        self.copies = TREE_BYTES_PER_BYTE  # what each byte read costs the process tree (limits.Budget.take)
+
+    @contextmanager
+    def kept_in_child(self):
+        """Arrays read inside are used by the reading child alone, never sent back: each byte costs the read
+        and one temporary (a finite-check mask, an index conversion), not the parent's copy too."""
+        self.copies = CHILD_COPIES
+        try:
+            yield
+        finally:
+            self.copies = TREE_BYTES_PER_BYTE
 
     def fail(self, field: str, expected: str, got: str | None = None):
         raise BodyFileError(self.path, field, expected, got)
@@ -161,7 +174,7 @@ class _Reader:
         kind = ds.dtype.kind
         if kind not in ("iu" if integer else "fiu"):
             self.fail(name, "integers" if integer else "numbers", f"dtype {ds.dtype}")
-        self.budget.take(name, ds.size * 8.0)
+        self.budget.take(name, ds.size * 8.0, self.copies)
         data = ds[()]
         data = data.astype(np.int64 if integer else float, copy=False)
         if not integer and not np.all(np.isfinite(data)):
@@ -326,9 +339,10 @@ def _phi(r: _Reader, n: int, nf: int) -> h5py.Dataset:
 
 
 def read(path: str | os.PathLike, load_fe: bool | str = False) -> FlexibleBody:
-    """Read a ``.ffrf.h5`` body; the reading runs in a guarded child (io.guard). Nodal data are read when the
-    file has no invariants cache, with ``load_fe`` True, and with ``load_fe="summary"`` (what the analysis
-    needs: the cache and the nodal summary) when the file caches no nodal summary (written before it did)."""
+    """Read a ``.ffrf.h5`` body; the reading runs in a guarded child (io.guard). With ``load_fe`` True the
+    nodal data are read into the body; otherwise only the invariants cache (and with ``load_fe="summary"``,
+    what the analysis needs, the nodal summary) is read, and where the file lacks it (written before it did,
+    or without the cache) both are computed in one streamed pass over the nodal data (``_streamed``)."""
     return guard.run(path, "the HDF5 library", _read_file, path, load_fe)
 
 
@@ -353,21 +367,25 @@ def _read_open(r: _Reader, path, load_fe: bool | str) -> FlexibleBody:
     fe = None
     material = _material(r)  # validated whether or not the nodal data are read
     summary = _summary(r, nf) if "nodal_summary" in r.f else None
-    if (load_fe is True and has_fe) or "invariants" not in r.f or (load_fe == "summary" and has_fe and summary is None):
-        if not has_fe:
-            r.fail("modes/Phi", "nodal modes (or a cached invariants group)", "missing")
+    if "invariants" not in r.f and not has_fe:
+        r.fail("modes/Phi", "nodal modes (or a cached invariants group)", "missing")
+    integrals, nodal = None, summary
+    if load_fe is True and has_fe:
         fe = _read_fe(r, nf, material)
-        integrals = fe.integrals()
+        integrals, nodal = fe.integrals(), fe.summary()
+    elif "invariants" not in r.f or (load_fe == "summary" and has_fe and summary is None):
+        integrals, nodal = _streamed(r, nf)
+    if integrals is None:
+        integrals = _cached_integrals(r, nf)
+    else:  # the nodal data were read: what the file caches must be theirs
         if "invariants" in r.f:
             _cache_agrees(r, _cached_integrals(r, nf), integrals)
         if summary is not None:
-            _summary_agrees(r, summary, fe.summary())
-    else:
-        integrals = _cached_integrals(r, nf)
+            _summary_agrees(r, summary, nodal)
     return FlexibleBody(name=name, integrals=integrals, eigenvalues=eigenvalues, units=units,
                         sigma_max=sigma, provenance=_provenance(r, path), fe=fe,
                         static_centrifugal=_static_centrifugal(r), geometric=_geometric(r, nf),
-                        nodal=summary if fe is None else None)
+                        nodal=nodal if fe is None else None)
 
 
 def _mode_count(r: _Reader) -> int:
@@ -428,6 +446,78 @@ def _read_fe(r: _Reader, nf: int, material: Material | None) -> ModalFE:
     K = r.csr("stiffness/K", (3 * n, 3 * n)) if "stiffness/K" in r.f else None
     stress = r.array("stress/nodal", (n, nf)) if "stress/nodal" in r.f else None
     return ModalFE(mesh, Ms, Phi, K, stress, material, _rotary(r, n, nf))
+
+
+def _streamed(r: _Reader, nf: int) -> tuple[ShapeIntegrals, NodalSummary]:
+    """Invariants and nodal summary in one pass over blocks of nodes (``invariants.nodal_pass``) in the reading
+    child, which sends back only them. The modes are read whole where the memory limit allows it, else chunk
+    by chunk and never held whole, so --max-memory bounds the working set, not the file (docs/format.md,
+    "Limits"); the mesh and Ms are read whole and validated as for ``_read_fe``; K is not read (the analysis
+    needs only whether it is there); the nodal stresses are validated block by block."""
+    with r.kept_in_child():
+        mesh = _mesh(r)
+        n = mesh.n_nodes
+        if nf > 3 * n:
+            r.fail("modes/eigenvalues", f"at most 3n = {3 * n} modes for the {n} nodes of the mesh", str(nf))
+        r.budget.take("modes/eigenvalues", 12.0 * 8 * nf * nf)  # the invariants Sbar and spin computed from them
+        Ms = _mass(r, n)
+        ds = _phi(r, n, nf)
+        rotary = _rotary(r, n, nf)
+        if CHILD_COPIES * 8.0 * ds.size <= r.budget.remaining:  # the modes whole, in the child only
+            Phi, rows = r.array("modes/Phi", (n, 3, nf)), block_rows(nf)
+            phi_rows = lambda a, b: Phi[a:b]  # noqa: E731
+        else:
+            rows = _stream_rows(r, ds, nf)
+            phi_rows = _checked_rows(r, "modes/Phi", _chunked(r, ds, rows))
+    result = nodal_pass(mesh.points, lambda a, b: Ms[a:b], phi_rows, nf,
+                        None if rotary is None else rotary.integrals(), rows)
+    if "stress/nodal" in r.f:
+        _stream_check(r, "stress/nodal", (n, nf), rows)
+    return result.integrals, NodalSummary(result.max_deflection, mesh.largest_dimension(), n, "stiffness/K" in r.f)
+
+
+BLOCKS_HELD = 3 * SPAN + 2  # blocks of Phi rows a streamed pass holds: chunk cache (SPAN + 1), reach, its float copy, Y
+
+
+def _stream_rows(r: _Reader, ds: h5py.Dataset, nf: int) -> int:
+    """Nodal rows per block of the streamed pass: ``invariants.block_rows`` in whole chunks, fewer where the
+    memory limit left is smaller (charged to the budget; refused when a single chunk's blocks do not fit)."""
+    chunk = ds.chunks[0] if ds.chunks else 1
+    per_row = 8.0 * 3 * nf * BLOCKS_HELD
+    fit = int(r.budget.remaining / 2 / per_row) // chunk * chunk
+    rows = max(chunk, min(block_rows(nf, chunk), fit))
+    r.budget.take("modes/Phi", per_row * rows, copies=1)  # the child's working set only
+    return rows
+
+
+def _chunked(r: _Reader, ds: h5py.Dataset, rows: int) -> h5py.Dataset:
+    """``ds`` opened with a chunk cache of SPAN + 1 blocks, so each compressed chunk is inflated once while the
+    blocks of ``nodal_pass`` reach their neighbours (h5py's default cache holds 1 MiB)."""
+    row_bytes = 8 * int(np.prod(ds.shape[1:]))
+    chunk = 8 * int(np.prod(ds.chunks)) if ds.chunks else 0
+    dapl = h5py.h5p.create(h5py.h5p.DATASET_ACCESS)
+    dapl.set_chunk_cache(521, (SPAN + 1) * max(chunk, rows * row_bytes), 1.0)
+    return h5py.Dataset(h5py.h5d.open(r.f.id, ds.name.encode(), dapl))
+
+
+def _checked_rows(r: _Reader, name: str, ds: h5py.Dataset):
+    """Rows a:b of ``ds`` as finite floats (the field named otherwise)."""
+    def rows(a: int, b: int) -> np.ndarray:
+        block = ds[a:b].astype(float, copy=False)
+        if not np.all(np.isfinite(block)):
+            r.fail(name, "finite numbers", "NaN or inf")
+        return block
+    return rows
+
+
+def _stream_check(r: _Reader, name: str, shape: tuple, rows: int) -> None:
+    """A per-node dataset validated block by block (shape, numbers, finite) without being held."""
+    ds = r.node(name)
+    if ds.shape != shape or ds.dtype.kind not in "fiu":
+        r.fail(name, f"numbers of shape {shape}", f"{ds.dtype} {tuple(ds.shape)}")
+    read = _checked_rows(r, name, ds)
+    for a in range(0, shape[0], rows):
+        read(a, min(shape[0], a + rows))
 
 
 def _rotary(r: _Reader, n: int, nf: int) -> NodalRotary | None:

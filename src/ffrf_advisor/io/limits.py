@@ -17,8 +17,8 @@ import os
 import re
 
 from ..errors import BodyFileError, FFRFError
+from ..names import MAX_MEMORY_ENV as ENV
 
-ENV = "FFRF_ADVISOR_MAX_MEMORY"
 DEFAULT = 8 * 2**30
 TREE_BYTES_PER_BYTE = 3.0  # measured 2.3-2.9 (benchmarks/bench_memory.py, 27-185 MiB declared): the child's
 # read with its finite-check masks and blocks of the nodal sums, the parent's body and blocks of the analysis
@@ -65,9 +65,14 @@ class Budget:
     def __init__(self, path):
         self.path, self.used, self.limit = path, 0, max_bytes()
 
-    def take(self, field: str, nbytes: float) -> None:
-        """Charge ``nbytes`` read by the child (``TREE_BYTES_PER_BYTE`` times: the child's and the parent's)."""
-        tree = nbytes * TREE_BYTES_PER_BYTE
+    @property
+    def remaining(self) -> int:
+        return max(0, self.limit - self.used)
+
+    def take(self, field: str, nbytes: float, copies: float = TREE_BYTES_PER_BYTE) -> None:
+        """Charge ``nbytes`` read by the child, ``copies`` times: ``TREE_BYTES_PER_BYTE`` for what the parent
+        receives too, 1 for a working set the child alone holds (blocks of a streamed pass)."""
+        tree = nbytes * copies
         if self.used + tree > self.limit:
             raise BodyFileError(self.path, field, f"data that fit the memory limit of {human(self.limit)} "
                                 f"(--max-memory or {ENV})", f"{human(nbytes)} declared, "

@@ -341,14 +341,11 @@ def _blas_threads() -> list[int]:
     return [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
 
 
-def test_gate_workers_use_one_blas_thread_each():
-    """gate --jobs N: BLAS's own threads on top of N workers made --jobs 2 slower than --jobs 1 (issue 24,
-    item 7; benchmarks/bench_gate.py measures the ratio)."""
-    import os
-    from concurrent.futures import ProcessPoolExecutor
+def test_pool_workers_use_one_blas_thread_each():
+    """gate, verify and the sweep with --jobs N: BLAS's own threads on top of N workers made gate --jobs 2
+    slower than --jobs 1 (issue 24, item 7; benchmarks/bench_gate.py measures the ratio)."""
+    from ffrf_advisor.pool import local_pool
 
-    from ffrf_advisor.gate import _worker
-
-    with ProcessPoolExecutor(max_workers=1, initializer=_worker, initargs=(os.getpid(),)) as pool:
+    with local_pool(1) as pool:
         threads = pool.submit(_blas_threads).result()
     assert threads and set(threads) == {1}, threads

@@ -122,6 +122,15 @@ def test_without_axis_the_scenes_run_about_both_rigidly_stable_axes_and_the_advi
     assert sorted(scene_axes(oblique)) == [0, 2]
 
 
+def test_the_runs_on_two_processes_give_the_serial_results(bar, bar_verified):
+    """verify --jobs 2 (issue 24, item 2): the references and every (scene, set) run on two local processes,
+    with the same errors, evaluations and verdicts as the serial run (the integrators are deterministic)."""
+    parallel = verify(bar, bar_verified.scenes, repeats=1, jobs=2)
+    key = lambda v: [(r.scene, r.set.label, r.errors, r.nfev, r.failed) for r in v.results]  # noqa: E731
+    assert key(parallel) == key(bar_verified)
+    assert parallel.verdict == bar_verified.verdict and parallel.scene_verdicts == bar_verified.scene_verdicts
+
+
 def _spoiled(v, label, **errors):
     """The results with the advised set's errors in scene ``label`` replaced."""
     from dataclasses import replace

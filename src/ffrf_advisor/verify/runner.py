@@ -23,6 +23,7 @@ import numpy as np
 from ..amplitudes import SMALL_DEFORMATION
 from ..analysis import Analysis, analyze
 from ..response import frequency_change
+from ..pool import mapper
 from ..predict import level_of
 from ..sim.cost import rhs_cost
 from ..sim.integrate import FIXED, Run, integrate
@@ -214,20 +215,61 @@ def run_set(a: Analysis, ts: TermSet, scene: Scene, ref: Reference, integrator: 
 
 
 def verify(a: Analysis, scenes, tolerance: float = 0.01, integrator: str = "dop853", step: float | None = None,
-           rtol: float = 1e-8, repeats: int = 3, criterion: str = "response") -> Verification:
-    """Every term set through every scene against the reference, and the verdict on the advice by ``criterion``."""
-    sets = term_sets(a)
-    refs, results = {}, []
-    for scene in scenes:
-        ref = refs[scene.label] = reference(a, scene)
-        rows = [run_set(a, ts, scene, ref, integrator, step, rtol, repeats) for ts in sets]
-        full = next(r for r in rows if r.set.label == "IV (full)")
-        results += [_with_speedup(r, full) for r in rows]
+           rtol: float = 1e-8, repeats: int = 3, criterion: str = "response", jobs: int = 1) -> Verification:
+    """Every term set through every scene against the reference, and the verdict on the advice by ``criterion``;
+    the references, then the sets' runs, on ``jobs`` local processes (each run's wall time is the minimum over
+    its ``repeats``, taken serially in its worker)."""
+    scenes, sets = tuple(scenes), term_sets(a)
+    refs, rows = _runs(_Work(a, scenes, sets, integrator, step, rtol, repeats), jobs)
+    results = []
+    for sc in scenes:
+        scene_rows = [r for r in rows if r.scene == sc.label]
+        full = next(r for r in scene_rows if r.set.label == "IV (full)")
+        results += [_with_speedup(r, full) for r in scene_rows]
     results = tuple(results)
     per_scene = {sc.label: judge(a, tuple(r for r in results if r.scene == sc.label), refs, tolerance, criterion)
                  for sc in scenes}
-    return Verification(tolerance, integrator, tuple(scenes), refs, results,
+    return Verification(tolerance, integrator, scenes, refs, results,
                         judge(a, results, refs, tolerance, criterion), per_scene, criterion)
+
+
+@dataclass(frozen=True)
+class _Work:
+    """What every run of one verification shares (set before the workers fork, so never pickled per task)."""
+
+    a: Analysis
+    scenes: tuple[Scene, ...]
+    sets: tuple[TermSet, ...]
+    integrator: str
+    step: float | None
+    rtol: float
+    repeats: int
+
+
+_work: _Work | None = None
+
+
+def _runs(work: _Work, jobs: int) -> tuple[dict, list[SetResult]]:
+    """The scenes' references, then every (scene, set) run, in order."""
+    global _work
+    _work = work
+    try:
+        with mapper(jobs) as map_:
+            refs = list(map_(_reference_run, range(len(work.scenes))))
+            pairs = [(i, j) for i in range(len(work.scenes)) for j in range(len(work.sets))]
+            rows = list(map_(_set_run, pairs, [refs[i] for i, _ in pairs]))
+    finally:
+        _work = None
+    return {sc.label: ref for sc, ref in zip(work.scenes, refs)}, rows
+
+
+def _reference_run(i: int) -> Reference:
+    return reference(_work.a, _work.scenes[i])
+
+
+def _set_run(pair: tuple[int, int], ref: Reference) -> SetResult:
+    w = _work
+    return run_set(w.a, w.sets[pair[1]], w.scenes[pair[0]], ref, w.integrator, w.step, w.rtol, w.repeats)
 
 
 def _with_speedup(r: SetResult, full: SetResult) -> SetResult:

@@ -86,13 +86,15 @@ def stability_studies(a: Analysis, scene: Scene) -> dict:
 
 def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str = "dop853",
               step: float | None = None, rtol: float = 1e-8, repeats: int = 3, directory: Path | None = None,
-              scene_options: SceneOptions = SceneOptions(), criterion: str = "response", quick: bool = False) -> Study:
+              scene_options: SceneOptions = SceneOptions(), criterion: str = "response", quick: bool = False,
+              jobs: int = 1) -> Study:
     """Everything ``verify`` reports; figures go to ``directory`` when given. The scenes and the verdict cover every
-    axis of ``scenes.scene_axes``; work-precision, stability and drift use the first scene, Campbell all axes.
-    ``quick``: the scenes and the verdict only (and their trajectory figures)."""
+    axis of ``scenes.scene_axes`` (their runs on ``jobs`` local processes); work-precision, stability and drift
+    use the first scene, Campbell all axes. ``quick``: the scenes and the verdict only (and their trajectory
+    figures)."""
     scenes = make_scenes(scene_names, a, scene_options)
     a = for_scenes(a, scenes)
-    ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion)
+    ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion, jobs)
     first = scenes[0]
     points = stab = camp = None
     if not quick:

@@ -9,7 +9,6 @@ one machine (``verify``), which the output says.
 from __future__ import annotations
 
 import os
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,7 +16,7 @@ import numpy as np
 from ..analysis import Options, analyze
 from ..guidelines import Situation
 from ..io import read_body
-from ..io.guard import die_with_parent
+from ..pool import mapper
 from .measures import CRITERIA, worst
 from .runner import for_scenes, judge, verify
 from .scenes import SceneOptions, make_scenes
@@ -71,7 +70,5 @@ def run_sweep(tasks: list[Task], jobs: int = 1, scheduler: str | None = None, ro
         from distributed import Client  # optional extra: pip install 'ffrf-advisor[distributed]'
         with Client(scheduler) as client:
             return client.gather(client.map(row, tasks, pure=False))
-    if jobs > 1:
-        with ProcessPoolExecutor(jobs, initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
-            return list(pool.map(row, tasks))
-    return [row(t) for t in tasks]
+    with mapper(jobs) as map_:
+        return list(map_(row, tasks))

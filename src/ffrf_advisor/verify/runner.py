@@ -63,6 +63,7 @@ class SetResult:
     failed: bool
     reason: str
     speedup: float | None = None  # wall(full) / wall(this set), same integrator
+    run: Run | None = field(default=None, compare=False, repr=False)  # the samples, for the trajectory figures
 
     def meets(self, tolerance: float, criterion: str = "response") -> bool:
         return not self.failed and worst(self.errors, criterion) <= tolerance
@@ -211,7 +212,7 @@ def run_set(a: Analysis, ts: TermSet, scene: Scene, ref: Reference, integrator: 
     s = summary(model, run, str(a.body.units))
     errs = {**scene_errors(a, run, ref.run), "frequency": frequency_error(a, ts.terms, scene)}
     return SetResult(ts, scene.label, errs, s["energy_drift"], s["H_drift"],
-                     min(r.wall_s for r in runs), run.nfev, run.failed, run.reason)
+                     min(r.wall_s for r in runs), run.nfev, run.failed, run.reason, run=run)
 
 
 def verify(a: Analysis, scenes, tolerance: float = 0.01, integrator: str = "dop853", step: float | None = None,

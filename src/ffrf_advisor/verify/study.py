@@ -114,8 +114,7 @@ def write_figures(a: Analysis, ver: Verification, points, camp: dict | None, sta
     unit = a.body.units.time
     paths = []
     for sc in ver.scenes:
-        model_runs = {ts.label: run_scene(build_model(a.body, ts.terms, sc.damping), sc, ver.integrator)
-                      for ts in term_sets(a)}
+        model_runs = {r.set.label: r.run for r in ver.results if r.scene == sc.label}
         paths += fig.save(fig.trajectories(ver.references[sc.label].run, model_runs, a.body.sigma_max, unit,
                                            a.body.units.stress, f"{a.body.name}: {sc.label}"),
                           directory, f"trajectories_{sc.name}_axis{sc.axis + 1}")

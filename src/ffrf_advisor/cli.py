@@ -1,47 +1,54 @@
-"""The ffrf-advisor command line: thin wiring of readers, analyses and reports."""
-from __future__ import annotations
+"""The ffrf-advisor command line: thin wiring of readers, analyses and reports.
 
+Each command imports what it uses when it runs: `--version` and `--help` import neither numpy nor rich
+(tests/test_startup.py, benchmarks/bench_startup.py); help texts take their lists from ``names``. No
+``from __future__ import annotations``: typer reads every command's annotations at each run, and as strings
+they cost about 8 ms more.
+"""
 import functools
-import json
-import tempfile
+import math
 import sys
 import time
 from pathlib import Path
-from typing import Annotated, Optional
+from typing import TYPE_CHECKING, Annotated, Optional
 
-import numpy as np
 import typer
 from typer._click.exceptions import NoArgsIsHelpError, UsageError  # typer vendors click (pinned)
 from typer.core import TyperGroup
-from rich.console import Console
 
 from . import __version__
-from .amplitudes import AmplitudeOptions
-from .analysis import Options, analyze as run_analysis, check_options
-from .checks import run_checks
 from .errors import FFRFError
-from .gate import check_junit_target, run_gate, write_junit
-from .guidelines import LEVELS, THRESHOLDS, Situation, load_config, operating_point, parse_speed
-from .io import check_reader_options, format_of, formats, limits, read_body, write_body
-from .io.atomic import atomic_path, check_target, not_an_input, one_run
-from .report.compare import comparison, comparison_table
-from .report.console import (analysis_summary, body_summary, progress_bar, shown, simulation_report,
-                             verification_report)
-from .adequacy import basis_errors
-from .report.json_out import SCHEMA_VERSION, analysis_json, info_json
-from .report.verify_input import read_verification
-from .schemas import COMMANDS as SCHEMA_COMMANDS, schema_text
-from .samples import SAMPLES, sample as make_sample
-from .sim.integrate import FIXED, INTEGRATORS, integrate
-from .sim.model import build_model, initial_state
-from .sim.output import check_output, summary, write_trajectory
-from .sim.setup import check_initial_state, check_tolerances, q_max_of, simulation_setup
-from .verify.checks import SCENES, check_verify_options
-from .solver_settings import SOLVERS, adams_settings
-from .terms import parse_terms
+from .names import INTEGRATORS, MAX_MEMORY_ENV, SAMPLES, SCENES, SCHEMA_COMMANDS, SOLVERS
 
-out = Console(emoji=False)  # names like zoo:ring:1003 stay text (":ring:" is an emoji code)
-err = Console(stderr=True, emoji=False)
+if TYPE_CHECKING:
+    from .analysis import Options
+
+_consoles: dict = {}  # this run's rich consoles, by stderr (bool)
+
+
+def _console(stderr: bool):
+    """This run's rich console on stdout or stderr, made at first use with the width the terminal (or COLUMNS)
+    has now, not as at an earlier run in this process (tests, notebooks)."""
+    if stderr not in _consoles:
+        from rich.console import Console
+        console = Console(stderr=stderr, emoji=False)  # names like zoo:ring:1003 stay text (":ring:" is an emoji)
+        console.width = console.width
+        _consoles[stderr] = console
+    return _consoles[stderr]
+
+
+out, err = functools.partial(_console, False), functools.partial(_console, True)
+
+
+def _print_json(data) -> None:
+    import json
+    print(json.dumps(data, indent=1))
+
+
+def run_analysis(body, options):
+    """analysis.analyze, imported when a command analyses."""
+    from .analysis import analyze
+    return analyze(body, options)
 
 
 class OneLineUsage(TyperGroup):
@@ -56,11 +63,11 @@ class OneLineUsage(TyperGroup):
             code = EXIT_BAD_INPUT
         except UsageError as e:
             where = " ".join(["ffrf-advisor", *(e.ctx.command_path.split()[1:] if e.ctx is not None else [])])
-            err.print(f"error: {' '.join(e.format_message().split())} (see `{where} --help`)", markup=False,
-                      highlight=False, soft_wrap=True)
+            err().print(f"error: {' '.join(e.format_message().split())} (see `{where} --help`)", markup=False,
+                        highlight=False, soft_wrap=True)
             code = EXIT_BAD_INPUT
         except typer.Abort:
-            err.print("aborted", highlight=False)
+            err().print("aborted", highlight=False)
             code = 1
         if standalone_mode:
             sys.exit(code if isinstance(code, int) else 0)
@@ -80,6 +87,7 @@ def handles_errors(fn):
     one meaning (gate: a body exceeds its level)."""
     @functools.wraps(fn)
     def wrapper(*args, **kwargs):
+        from .io.atomic import one_run
         try:
             with one_run():  # what the command reads, it never writes over
                 return fn(*args, **kwargs)
@@ -89,22 +97,33 @@ def handles_errors(fn):
             raise
         except Exception as e:  # noqa: BLE001 - the promise is one line and exit 2 for whatever a file provokes
             message = f"unexpected {type(e).__name__}: {' '.join(str(e).split())[:300]}"
-        err.print(f"error: {message}", markup=False, highlight=False, soft_wrap=True)
+        err().print(f"error: {message}", markup=False, highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_INPUT) from None
     return wrapper
 
 
 def _version(value: bool):
     if value:
-        out.print(f"ffrf-advisor {__version__}")
+        print(f"ffrf-advisor {__version__}")
         raise typer.Exit()
 
 
+def _limits(needed: bool):
+    """io.limits when an option sets it or an earlier run in this process may have (it imports the readers and
+    numpy, which --help does without); None when the defaults hold."""
+    if needed or f"{__package__}.io.limits" in sys.modules:
+        from .io import limits
+        return limits
+    return None
+
+
 def _max_memory(value: Optional[str]):
+    if (limits := _limits(value is not None)) is None:
+        return
     try:
         limits.set_max_bytes(None if value is None else limits.parse_size(value, "--max-memory"))
     except FFRFError as e:
-        err.print(f"error: {e}", markup=False, highlight=False, soft_wrap=True)
+        err().print(f"error: {e}", markup=False, highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_INPUT) from None
 
 
@@ -113,34 +132,14 @@ def main(version: bool = typer.Option(False, "--version", callback=_version, is_
                                       help="Print the version and exit."),
          max_memory: Optional[str] = typer.Option(
              None, "--max-memory", callback=_max_memory,
-             help=f"Most memory a body file may make the tool allocate: 8G, 500M (default ${limits.ENV} or 8G)."),
+             help=f"Most memory a body file may make the tool allocate: 8G, 500M (default ${MAX_MEMORY_ENV} or 8G)."),
          follow_outside: bool = typer.Option(
              False, "--follow-outside", help="Follow references (HDF5 external links, XDMF data) to files "
                                              "outside the body file's folder.")):
     """ffrf-advisor: guideline advisor for flexible bodies in the floating frame of reference."""
-    _fit_consoles()
-    limits.follow_outside(follow_outside)
-
-
-def _fit_consoles() -> None:
-    """The consoles' width as the terminal (or COLUMNS) says at this run, not as it was when the module was
-    imported (a process that runs the CLI more than once: tests, notebooks)."""
-    out.width = Console(emoji=False).width
-    err.width = Console(stderr=True, emoji=False).width
-
-
-@app.command()
-@handles_errors
-def info(body: Path = typer.Argument(..., help="Body file (any format, see `formats`)."),
-         eigenvalues: Eigenvalues = None, density: Density = None,
-         as_json: InfoJson = False):
-    """Mass, CoM, I0, eigenfrequencies, modal stress and the checks of theory section 4."""
-    b = _read(body, eigenvalues, density, load_fe=False)
-    checks = run_checks(b)
-    if as_json:
-        print(json.dumps(info_json(b, checks, str(body)), indent=1))
-        return
-    body_summary(out, b, checks)
+    _consoles.clear()
+    if (limits := _limits(follow_outside)) is not None:
+        limits.follow_outside(follow_outside)
 
 
 Speed = Annotated[Optional[str], typer.Option("--speed", help="Operating angular speed: 314rad/s, 3000rpm, 50Hz.")]
@@ -177,6 +176,27 @@ InfoJson, GateJson, CompareJson = (_json_option(c) for c in ("info", "gate", "co
 SettingsJson, SimulateJson, VerifyJson = (_json_option(c) for c in ("settings", "simulate", "verify"))
 SpinAxis = Annotated[Optional[str], typer.Option(
     "--spin-axis", help="Spin axis: principal axis 1, 2, 3 or a body-frame vector X,Y,Z (default: each, the worst decides).")]
+Eigenvalues = Annotated[Optional[str], typer.Option(
+    "--eigenvalues", help="meshio meshes: eigenvalues [1/s^2] as a comma list or a file (else field data).")]
+Density = Annotated[Optional[float], typer.Option(
+    "--density", help="meshio meshes: density [t/mm^3] (else field data).")]
+
+
+@app.command()
+@handles_errors
+def info(body: Path = typer.Argument(..., help="Body file (any format, see `formats`)."),
+         eigenvalues: Eigenvalues = None, density: Density = None,
+         as_json: InfoJson = False):
+    """Mass, CoM, I0, eigenfrequencies, modal stress and the checks of theory section 4."""
+    from .checks import run_checks
+    from .report.console import body_summary
+    from .report.json_out import info_json
+    b = _read(body, eigenvalues, density, load_fe=False)
+    checks = run_checks(b)
+    if as_json:
+        _print_json(info_json(b, checks, str(body)))
+        return
+    body_summary(out(), b, checks)
 
 
 def _is_file(text: str) -> bool:
@@ -199,12 +219,6 @@ def _numbers(option: str, text: str | None):
                         f"got {text!r}") from None
 
 
-Eigenvalues = Annotated[Optional[str], typer.Option(
-    "--eigenvalues", help="meshio meshes: eigenvalues [1/s^2] as a comma list or a file (else field data).")]
-Density = Annotated[Optional[float], typer.Option(
-    "--density", help="meshio meshes: density [t/mm^3] (else field data).")]
-
-
 def _mesh_options(eigenvalues: str | None, density: float | None, young: float | None = None,
                   poisson: float | None = None) -> dict:
     """--eigenvalues/--density/--young/--poisson as reader options (meshio meshes only)."""
@@ -216,12 +230,14 @@ def _read(path: Path, eigenvalues: str | None = None, density: float | None = No
           load_fe: bool | str = True, young: float | None = None, poisson: float | None = None):
     """Read any format; --eigenvalues/--density/--young/--poisson go to the meshio reader only; ``load_fe``
     "summary": what the analysis needs of the nodal data (io.ffrf_h5.read)."""
+    from .io import check_reader_options, read_body
     mesh_options = _mesh_options(eigenvalues, density, young, poisson)
     check_reader_options(path, mesh_options, fmt)
     return read_body(path, fmt, load_fe=load_fe, **mesh_options)
 
 
 def _thresholds(items: list[str] | None, base: dict) -> dict:
+    from .guidelines import THRESHOLDS
     out = dict(base)
     for item in items or []:
         name, _, value = item.partition("=")
@@ -243,7 +259,7 @@ def _spin_axis(text) -> tuple[tuple[float, float, float] | None, int | None]:
     if isinstance(text, (list, tuple)):
         text = ",".join(str(x) for x in text)
     values = _numbers("--spin-axis", str(text))
-    if values is None or len(values) != 3 or not np.all(np.isfinite(values)) or not np.any(values):
+    if values is None or len(values) != 3 or not all(map(math.isfinite, values)) or not any(values):
         raise FFRFError(f"--spin-axis {text!r}: expected 1, 2, 3 or three finite numbers X,Y,Z, not all zero")
     return tuple(values), None
 
@@ -255,6 +271,7 @@ def _speed_range(text: str | None) -> tuple[float, float] | None:
     low, sep, high = str(text).partition("..")
     if not sep:
         raise FFRFError(f"--speed-range {text!r}: expected LOW..HIGH, e.g. 0..3000rpm")
+    from .guidelines import parse_speed
     top = parse_speed(high)
     unit = high.strip().lstrip("+-0123456789.eE").strip()
     bottom = parse_speed(low if not _is_number(low) or not unit else low.strip() + unit)
@@ -273,8 +290,11 @@ def _is_number(text) -> bool:
 
 def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_allow=None, q_cap=None,
                   deflection_cap=None, q_max=None, n_ratio=None, threshold=None, config=None,
-                  spin_axis=None, tolerance=None, rules=None, speed_range=None, excitation=None) -> Options:
+                  spin_axis=None, tolerance=None, rules=None, speed_range=None, excitation=None) -> "Options":
     """Options from defaults < config file < command line."""
+    from .amplitudes import AmplitudeOptions
+    from .analysis import Options, check_options
+    from .guidelines import Situation, load_config, parse_speed
     cfg = load_config(config)
     pick = lambda cli, key, default=None: cli if cli is not None else cfg.get(key, default)  # noqa: E731
     speed = pick(speed, "speed")
@@ -286,8 +306,8 @@ def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_
         raise FFRFError("--speed and --speed-range: expected one of them, got both")
     w_op = w_range[1] if w_range is not None else (None if speed is None else parse_speed(speed))
     if w_op and w_range is None and _is_number(speed):  # 0 is 0 in every unit
-        err.print(f"note: speed {speed} has no unit: read as {w_op:g} rad/s (write e.g. 3000rpm or 50Hz)",
-                  highlight=False)
+        err().print(f"note: speed {speed} has no unit: read as {w_op:g} rad/s (write e.g. 3000rpm or 50Hz)",
+                    highlight=False)
     vector, principal = _spin_axis(pick(spin_axis, "spin_axis"))
     situation = Situation(w_op=w_op, f_sys=pick(f_sys, "f_sys"),
                           connection=pick(connection, "connection", "free"), widening=widening,
@@ -311,14 +331,16 @@ def analyze(body: Path = typer.Argument(..., help="Body file."), speed: Speed = 
             tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
             speed_range: SpeedRange = None):
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
+    from .report.console import analysis_summary
+    from .report.json_out import analysis_json
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
                             n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
                             excitation)
     result = run_analysis(_read(body, eigenvalues, density, load_fe="summary"), options)
     if as_json:
-        print(json.dumps(analysis_json(result, str(body)), indent=1))
+        _print_json(analysis_json(result, str(body)))
     else:
-        analysis_summary(out, result)
+        analysis_summary(out(), result)
 
 
 @app.command()
@@ -336,6 +358,11 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
          jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Bodies analysed in parallel."),
          as_json: GateJson = False):
     """CI gate: exit 0 when every body's level is within --max-level, 1 when one is not, 2 on bad input."""
+    from .gate import check_junit_target, run_gate, write_junit
+    from .guidelines import LEVELS, operating_point
+    from .io.atomic import atomic_path
+    from .report.console import shown
+    from .report.json_out import SCHEMA_VERSION
     max_level = max_level.strip().upper()
     if max_level not in LEVELS:
         raise FFRFError(f"--max-level {max_level!r}: expected one of {', '.join(LEVELS)}")
@@ -347,22 +374,22 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
     if options.situation.w_op is None:
         raise FFRFError("gate: --speed: expected the operating speed (0 for a body at rest), --speed-range or "
                         "speed in the config; without one only the rules that hold at rest would be evaluated")
-    results = run_gate([str(b) for b in bodies], options, max_level, jobs, err, _mesh_options(eigenvalues, density))
+    results = run_gate([str(b) for b in bodies], options, max_level, jobs, err(), _mesh_options(eigenvalues, density))
     if junit is not None:
         with atomic_path(junit, overwrite=True) as tmp:
             write_junit(results, max_level, tmp)
     if as_json:
-        print(json.dumps({"schema_version": SCHEMA_VERSION, "max_level": max_level, "bodies": results}, indent=1))
+        _print_json({"schema_version": SCHEMA_VERSION, "max_level": max_level, "bodies": results})
     else:
-        out.print(f"operating point: {operating_point(options.situation)}", highlight=False)
+        out().print(f"operating point: {operating_point(options.situation)}", highlight=False)
         for r in results:
             status = "ERROR" if r["error"] else ("ok" if r["within"] else "EXCEEDS")
             text = r["error"] or f"{r['file']}: level {r['level']} (max {max_level})"
             if r["error"] and not text.startswith(r["file"]):
                 text = f"{r['file']}: {text}"  # errors that name no file get it once
-            out.print(f"{status:8s} {shown(text, 2000)}", highlight=False)
+            out().print(f"{status:8s} {shown(text, 2000)}", highlight=False)
             for w in r["warnings"]:
-                out.print(f"{'':8s} warning: {shown(w, 2000)}", highlight=False)
+                out().print(f"{'':8s} warning: {shown(w, 2000)}", highlight=False)
     if any(r["error"] for r in results):
         raise typer.Exit(EXIT_BAD_INPUT)
     if not all(r["within"] for r in results):
@@ -379,18 +406,20 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed:
             speed_range: SpeedRange = None,
             eigenvalues: Eigenvalues = None, density: Density = None, as_json: CompareJson = False):
     """Paper-style comparison of bodies: frequencies, stress, q_max, inertia, coupling and norm ratios."""
+    from .report.compare import comparison, comparison_table
+    from .report.console import shown
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
                             n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
                             excitation)
     analyses = [run_analysis(_read(b, eigenvalues, density, load_fe="summary"), options) for b in bodies]
     data = comparison(analyses, [str(b) for b in bodies])
     if as_json:
-        print(json.dumps(data, indent=1))
+        _print_json(data)
     else:
-        out.print(comparison_table(data))
+        out().print(comparison_table(data))
         for body in data["bodies"]:
             for w in body["warnings"]:
-                out.print(f"{shown(body['name'])}: warning: {shown(w, 2000)}", highlight=False)
+                out().print(f"{shown(body['name'])}: warning: {shown(w, 2000)}", highlight=False)
 
 
 @app.command()
@@ -410,6 +439,7 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
            speed_range: SpeedRange = None,
            eigenvalues: Eigenvalues = None, density: Density = None):
     """HTML or PDF report: verdict, evidence, the paper's figures and tables, pictures, Campbell, verification."""
+    import tempfile
     from .report import document
     from .report.write import check_report_target, write
     check_report_target(output, bodies, force)
@@ -426,12 +456,13 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
         doc = (document.single(analyses[0], str(bodies[0]), studies[0]) if len(bodies) == 1
                else document.collection(analyses, [str(b) for b in bodies], studies))
         write(doc, output, force)
-    err.print(f"wrote {output} ({output.stat().st_size / 1024:.0f} KiB)", markup=False, highlight=False)
+    err().print(f"wrote {output} ({output.stat().st_size / 1024:.0f} KiB)", markup=False, highlight=False)
 
 
 def _verification(analysis, body: Path, folder: Optional[Path], given: Optional[Path]) -> Optional[dict]:
     """A verification for the report: read from a file, run now (figures into ``folder``), or none."""
     if given is not None:
+        from .report.verify_input import read_verification
         return read_verification(given)
     if folder is None:
         return None
@@ -439,7 +470,7 @@ def _verification(analysis, body: Path, folder: Optional[Path], given: Optional[
     from .verify.scenes import SceneOptions
     from .verify.study import run_study
     folder.mkdir()
-    err.print(f"verifying {body} by simulation ...", markup=False, highlight=False)
+    err().print(f"verifying {body} by simulation ...", markup=False, highlight=False)
     study = run_study(analysis, list(SCENES), 0.01, "dop853", None, 1e-8, 3, folder, SceneOptions(), "response")
     return study_json(study, str(body))
 
@@ -451,14 +482,18 @@ def sample(name: str = typer.Argument(..., help=f"One of: {', '.join(SAMPLES)}."
            refine: int = typer.Option(1, "--refine", help="Element size divided by this (mesh convergence)."),
            force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT.")):
     """Build a sample body from its recipe (docs/samples.md): FE mesh, free-free modes, stress."""
+    from .io import format_of, write_body
+    from .io.atomic import check_target
+    from .report.console import shown
+    from .samples import sample as make_sample
     check_target(output, force)  # a bad target or suffix fails before the minutes of FE work
     format_of(output)
     start = time.perf_counter()
-    body = make_sample(name, refine, report=lambda step: err.print(
+    body = make_sample(name, refine, report=lambda step: err().print(
         f"{name}: {step} ({time.perf_counter() - start:.0f} s so far)", highlight=False))
     write_body(body, output, overwrite=force)
-    out.print(f"wrote {shown(output)}: {shown(body.name)}, {body.nf} modes, f1 = {body.frequencies_hz[0]:.4g} Hz, "
-              f"{body.fe.mesh.n_nodes} nodes")
+    out().print(f"wrote {shown(output)}: {shown(body.name)}, {body.nf} modes, f1 = {body.frequencies_hz[0]:.4g} Hz, "
+                f"{body.fe.mesh.n_nodes} nodes")
 
 
 @app.command()
@@ -478,6 +513,9 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
                                                                       "the principal axes (theory 4), as the "
                                                                       "CalculiX and meshio readers do.")):
     """Convert a body between formats (see `ffrf-advisor formats`); refuses to overwrite without --force."""
+    from .io import format_of, write_body
+    from .io.atomic import check_target
+    from .report.console import shown
     check_target(target, force)
     fmt = format_of(target, to_format)
     if fmt.write is None:
@@ -486,8 +524,8 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
     if transform:
         body = body.moved_to_principal_frame()
     write_body(body, target, fmt.name, overwrite=force)
-    out.print(f"wrote {shown(target)} ({fmt.name}): {shown(body.name)}, {body.nf} modes"
-              + ("" if body.fe is not None else ", invariants only"))
+    out().print(f"wrote {shown(target)} ({fmt.name}): {shown(body.name)}, {body.nf} modes"
+                + ("" if body.fe is not None else ", invariants only"))
 
 
 @app.command()
@@ -499,16 +537,20 @@ def augment(body: Path = typer.Argument(..., help="Body file with FE data and ma
             force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT.")):
     """Add the static centrifugal deflections as residual vectors (theory 11): the fix when the kept modes
     cannot carry the widening."""
+    from .adequacy import basis_errors
     from .augment import augment as add_residual_vectors, parse_axes
+    from .io import write_body
+    from .io.atomic import check_target
+    from .report.console import shown
     chosen = parse_axes(axes)
     check_target(output, force)
     b = _read(body)
     new = add_residual_vectors(b, chosen, str(body))
     write_body(new, output, "ffrf-h5", overwrite=force)
     errors = basis_errors(new)
-    out.print(f"wrote {shown(output)}: {shown(new.name)}, {b.nf} + {len(chosen)} -> {new.nf} modes; energy-norm error of "
-              "the static centrifugal deflection about axes 1, 2, 3: " + ", ".join(f"{e:.2g}" for e in errors),
-              highlight=False)
+    out().print(f"wrote {shown(output)}: {shown(new.name)}, {b.nf} + {len(chosen)} -> {new.nf} modes; energy-norm error of "
+                "the static centrifugal deflection about axes 1, 2, 3: " + ", ".join(f"{e:.2g}" for e in errors),
+                highlight=False)
 
 
 @app.command("schema")
@@ -517,16 +559,18 @@ def schema_command(command: str = typer.Argument(..., help=f"One of: {', '.join(
     """Print the JSON schema of a command's --json output (shipped in the package)."""
     if command not in SCHEMA_COMMANDS:
         raise FFRFError(f"schema {command!r}: expected one of {', '.join(SCHEMA_COMMANDS)}")
+    from .schemas import schema_text
     print(schema_text(command), end="")
 
 
 @app.command("formats")
 def list_formats():
     """The body file formats: name, suffixes, read/write."""
+    from .io import formats
     rows = [(f.name, " ".join(f.suffixes), "read" + (", write" if f.write else "")) for f in formats()]
     widths = [max(len(r[i]) for r in rows) for i in range(2)]
     for name, suffixes, access in rows:
-        out.print(f"{name:{widths[0]}s}  {suffixes:{widths[1]}s}  {access}", markup=False)
+        out().print(f"{name:{widths[0]}s}  {suffixes:{widths[1]}s}  {access}", markup=False)
 
 
 @app.command()
@@ -539,6 +583,7 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
              tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
              speed_range: SpeedRange = None):
     """Solver settings for the advised term set (Adams: coupling option and INVARIANTS= pattern)."""
+    from .solver_settings import adams_settings
     if solver not in SOLVERS:
         raise FFRFError(f"--solver {solver!r}: expected one of {', '.join(SOLVERS)}")
     options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config,
@@ -549,19 +594,19 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
             **adams_settings(result.advice.terms),
             "warnings": list(result.advice.warnings)}
     if as_json:
-        print(json.dumps(data, indent=1))
+        _print_json(data)
         return
     for w in data["warnings"]:
-        out.print(f"warning: {w}", highlight=False)
-    out.print(f"level {data['level']}: terms {', '.join(data['terms'])}")
-    out.print(f"Adams: [bold]{data['formulation']}[/bold]   INVARIANTS={data['invariants']}")
-    out.print(f"  {data['statement']}")
+        out().print(f"warning: {w}", highlight=False)
+    out().print(f"level {data['level']}: terms {', '.join(data['terms'])}")
+    out().print(f"Adams: [bold]{data['formulation']}[/bold]   INVARIANTS={data['invariants']}")
+    out().print(f"  {data['statement']}")
     for term, invs in data["needed_invariants"].items():
-        out.print(f"  {term:13s} " + (f"needs {', '.join(invs)}" if invs else
-                                      "no invariant carries it: the solver needs its own stress stiffening "
-                                      "(theory 9)"), highlight=False)
-    out.print(f"source: {data['source']}", highlight=False)
-    out.print(f"note: {data['pattern_note']}", highlight=False)
+        out().print(f"  {term:13s} " + (f"needs {', '.join(invs)}" if invs else
+                                        "no invariant carries it: the solver needs its own stress stiffening "
+                                        "(theory 9)"), highlight=False)
+    out().print(f"source: {data['source']}", highlight=False)
+    out().print(f"note: {data['pattern_note']}", highlight=False)
 
 
 Terms = Annotated[str, typer.Option("--terms", help="I, II, III, IV, full, advised, or a comma list of term ids.")]
@@ -588,6 +633,15 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
              threshold: Threshold = None, config: Config = None, eigenvalues: Eigenvalues = None,
              density: Density = None):
     """Simulate the free body with a term set (theory sections 5, 10); exit 3 when the integration fails."""
+    import numpy as np
+    from .io.atomic import not_an_input
+    from .names import FIXED
+    from .report.console import progress_bar, simulation_report
+    from .sim.integrate import integrate
+    from .sim.model import build_model, initial_state
+    from .sim.output import check_output, summary, write_trajectory
+    from .sim.setup import check_initial_state, check_tolerances, q_max_of, simulation_setup
+    from .terms import parse_terms
     if output is not None:
         check_output(output, force)
     b = _read(body, eigenvalues, density)
@@ -603,16 +657,16 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     w0, v0 = _numbers("--omega0", omega0), _numbers("--qd0", qd0)
     check_initial_state(b, w0, start, None if v0 is None else np.asarray(v0) * setup.per_second)
     y0 = initial_state(model, np.array(w0) * setup.per_second, () if start is None else start, v0 or ())
-    with progress_bar(err) as progress:
+    with progress_bar(err()) as progress:
         run = integrate(model, y0, setup.t_end, integrator, setup.step, rtol, atol, setup.output_step,
                         progress=progress)
     if output is not None:
         write_trajectory(output, model, run, force)
     result = summary(model, run, str(b.units))
     if as_json:
-        print(json.dumps(result, indent=1))
+        _print_json(result)
     else:
-        simulation_report(out, result, output)
+        simulation_report(out(), result, output)
     if run.failed:
         raise typer.Exit(EXIT_DIVERGED)
 
@@ -639,8 +693,11 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    excitation: Excitation = None, spin_axis: SpinAxis = None, deflection_cap: DeflCap = None,
                    q_max: QMax = None, eigenvalues: Eigenvalues = None, density: Density = None):
     """Verify the advice by simulation: scenes, term sets, errors, cost, stability, Campbell, figures."""
-    from .verify.scenes import SceneOptions
+    from .report.console import verification_report
     from .report.verify_json import study_json
+    from .sim.setup import simulation_setup
+    from .verify.checks import check_verify_options
+    from .verify.scenes import SceneOptions
     from .verify.study import run_study
     names = list(scene or SCENES)
     check_verify_options(names, tolerance, integrator, step, rtol, repeats, output, criterion)
@@ -654,6 +711,6 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    criterion, quick)
     data = study_json(st, str(body))
     if as_json:
-        print(json.dumps(data, indent=1))
+        _print_json(data)
     else:
-        verification_report(out, data)
+        verification_report(out(), data)

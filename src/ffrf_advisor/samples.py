@@ -16,6 +16,7 @@ from .errors import FFRFError
 from .fe.build import modal_body
 from .fe.material import STEEL
 from .fe.mesh import Box, Mesh, box_mesh, box_union_mesh, round_hole
+from .names import SAMPLES
 from .zoo import ZOO_PREFIX, parse_zoo_name, zoo_body
 
 N_MODES = 16
@@ -116,15 +117,14 @@ def carbody_mesh(refine: int = 1) -> Mesh:
     return box_union_mesh(carbody_boxes(), 100.0 / refine, CELL)
 
 
-RECIPES: dict[str, tuple[Callable[[int], Mesh], object, str]] = {
-    "beam": (beam_mesh, STEEL, "slender steel beam, mass along axis 3"),
-    "plate": (plate_mesh, STEEL, "thin steel plate 1000 x 900 x 0.5 mm"),
-    "conrod": (conrod_mesh, STEEL, "compact steel connecting rod"),
-    "genstruct1": (GENSTRUCT1.mesh, STEEL, "hub with flyweights on soft flexures (2 x 180 mm)"),
-    "genstruct2": (GENSTRUCT2.mesh, STEEL, "the same with stiff flexures (12 x 180 mm)"),
-    "carbody": (carbody_mesh, STEEL, "thin-walled closed box frame, 3 mm steel walls"),
-}
-SAMPLES = tuple(RECIPES)
+RECIPES: dict[str, tuple[Callable[[int], Mesh], object, str]] = dict(zip(SAMPLES, (  # names.SAMPLES, in order
+    (beam_mesh, STEEL, "slender steel beam, mass along axis 3"),
+    (plate_mesh, STEEL, "thin steel plate 1000 x 900 x 0.5 mm"),
+    (conrod_mesh, STEEL, "compact steel connecting rod"),
+    (GENSTRUCT1.mesh, STEEL, "hub with flyweights on soft flexures (2 x 180 mm)"),
+    (GENSTRUCT2.mesh, STEEL, "the same with stiff flexures (12 x 180 mm)"),
+    (carbody_mesh, STEEL, "thin-walled closed box frame, 3 mm steel walls"),
+), strict=True))
 
 
 def sample(name: str, refine: int = 1, keep_stiffness: bool = False, report=None) -> FlexibleBody:

@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 from importlib import resources
 
-COMMANDS = ("info", "analyze", "gate", "compare", "settings", "simulate", "verify")
+from ..names import SCHEMA_COMMANDS as COMMANDS
 
 
 def schema_text(command: str) -> str:

@@ -13,11 +13,11 @@ import numpy as np
 
 from ..analysis import Analysis
 from ..errors import FFRFError
+from ..names import SCENES
 from ..predict import most_mixed_mode, response_time
 from ..sim.loads import LoadProgram, Loads
 from ..units import TIME
 
-SCENES = ("free-spin", "mode-release", "spin-up", "torque-pulse", "minor-axis")
 ABOUT_AN_AXIS = ("free-spin", "mode-release", "spin-up", "torque-pulse")  # about each axis of scene_axes
 
 

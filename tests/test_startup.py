@@ -1,0 +1,49 @@
+"""Start-up: `--version`, `--help` and `COMMAND --help` import neither numpy nor scipy (issue 24, item 5).
+
+Each case runs the CLI in a fresh interpreter and lists the heavy packages it imported by then;
+benchmarks/bench_startup.py times the same runs.
+"""
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+import typer
+
+from ffrf_advisor.cli import app
+
+HEAVY = ("numpy", "scipy", "h5py", "numba", "matplotlib")
+PROBE = f"""
+import sys
+from ffrf_advisor.cli import app
+try:
+    app(sys.argv[1:], prog_name="ffrf-advisor")
+except SystemExit as e:
+    print("exit", e.code)
+print("imported", *sorted({{m.split(".")[0] for m in sys.modules}} & set({HEAVY!r})))
+"""
+COMMANDS = sorted(typer.main.get_command(app).commands)
+
+
+def heavy_imports(*args: str) -> tuple[int, set[str]]:
+    """(exit code, heavy packages imported) of ``ffrf-advisor ARGS`` in a fresh interpreter."""
+    run = subprocess.run([sys.executable, "-c", PROBE, *args], capture_output=True, text=True, check=True)
+    *_, exit_line, imported = run.stdout.splitlines()
+    return int(exit_line.removeprefix("exit ")), set(imported.split()[1:])
+
+
+def test_every_command_is_probed():
+    assert {"analyze", "info", "gate", "verify", "simulate", "sample", "schema"} <= set(COMMANDS)
+
+
+@pytest.mark.parametrize("args", [["--version"], ["--help"], *([c, "--help"] for c in COMMANDS)], ids=" ".join)
+def test_version_and_help_import_no_numpy(args):
+    code, heavy = heavy_imports(*args)
+    assert code == 0 and heavy == set(), f"ffrf-advisor {' '.join(args)} imported {sorted(heavy)}"
+
+
+def test_probe_sees_numpy():
+    """The probe itself: a command that reads (formats lists the readers) imports numpy."""
+    code, heavy = heavy_imports("formats")
+    assert code == 0 and "numpy" in heavy

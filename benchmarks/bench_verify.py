@@ -26,7 +26,7 @@ import numpy as np
 
 from ffrf_advisor.io import read_body
 from ffrf_advisor.sim import kernels
-from ffrf_advisor.sim.integrate import integrate
+from ffrf_advisor.sim.integrate import _compiled_model, integrate
 from ffrf_advisor.sim.model import build_model, initial_state
 from ffrf_advisor.terms import FULL
 
@@ -37,10 +37,10 @@ OLD_PATH = ("import sys; from ffrf_advisor.sim.loads import Loads; Loads.compile
             "from ffrf_advisor.cli import app; sys.argv = ['ffrf-advisor', *sys.argv[1:]]; app()")
 
 
-@nb.njit(cache=True)
-def _rhs_loop(y, out, n, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, zero3, zf, work):
+@nb.njit
+def _rhs_loop(y, out, n, model, zero3, zf):
     for _ in range(n):
-        kernels.rhs_into(y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, zero3, zf, False, zero3, zero3, work)
+        kernels.rhs_into(y, out, model, zero3, zf, False, zero3, zero3)
 
 
 def best(fn, repeat: int) -> float:
@@ -57,8 +57,7 @@ def per_evaluation(repeat: int) -> None:
     m = build_model(body, FULL)
     y0 = initial_state(m, (0.0, 0.0, 300.0), np.full(body.nf, 0.05))
     out, n = np.empty_like(y0), 20000
-    args = (m.flags, m.I0, m.Ibar, m.Sbar, m.W3k, m.eigenvalues, m.damping, m.G, np.zeros(3), np.zeros(m.nf),
-            kernels.workspace(m.nf))
+    args = (_compiled_model(m), np.zeros(3), np.zeros(m.nf))
     _rhs_loop(y0, out, 1, *args)
     alone = best(lambda: _rhs_loop(y0, out, n, *args), repeat) / n
     runs = {"dop853 (rtol 1e-10)": lambda: integrate(m, y0, 0.02, "dop853", rtol=1e-10, atol=1e-14),

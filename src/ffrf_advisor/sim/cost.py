@@ -1,11 +1,14 @@
 """The simulator's cost model: multiply-adds of one compiled right-hand side (sim.kernels) per term set.
 
-It counts the loops of ``kernels.rhs_into``: the W2 terms share the nine
-block products ``Sbar_kl q`` (9 nf^2), the W3 terms the three skew blocks
-(3 nf^2 each for C(q), unless the W2 products give C for free, and for the
-flexible Coriolis part), everything else is O(nf), plus a fixed cost per
-call. benchmarks/bench_sim.py prints the measured ratios beside it (within
-a factor of 2 from nf = 10 to 200; the vectorised products run faster than
+It counts the loops of ``kernels.rhs_into``: the W2 terms share the
+products of the symmetric diagonal blocks ``Sbar_kk q`` (3 nf^2: each
+stored entry of their upper halves serves a row and a column); the W2 and
+W3 terms share the off-diagonal pair products ``Sbar_ab q`` and
+``Sbar_ab^T q`` (6 nf^2), from which C(q) follows in O(nf);
+``cor_coupling`` needs the same pair products of q' (6 nf^2 more);
+everything else is O(nf), plus a fixed cost per call.
+benchmarks/bench_sim.py prints the measured ratios beside it (within a
+factor of 3 from nf = 10 to 200; the vectorised products run faster than
 their count).
 """
 from __future__ import annotations
@@ -17,13 +20,13 @@ def rhs_cost(terms, nf: int) -> float:
     """Multiply-adds of one right-hand side with ``terms`` and ``nf`` modes."""
     t = set(terms)
     w2 = bool(t & {"inertia_quad", "cf2", "cor_quad"})
+    w3 = bool(t & {"coupling", "cor_coupling"})
     cost = 6 * nf + CALL  # stiffness, damping, kinematics, gyroscopic term, 3 x 3 solve, the call itself
     cost += 9 * nf * ("inertia_lin" in t) + (9 * nf + 9) * ("cor1" in t) + 10 * nf * ("cf1" in t)
-    cost += 9 * nf * nf * w2 + 18 * nf * ("inertia_quad" in t) + (18 * nf + 9) * ("cor_quad" in t)
+    cost += 3 * nf * nf * w2 + 18 * nf * ("inertia_quad" in t) + (18 * nf + 9) * ("cor_quad" in t)
     cost += 10 * nf * ("cf2" in t)
-    if t & {"coupling", "cor_coupling"}:
-        cost += 6 * nf if w2 else 3 * nf * nf
-    cost += (3 * nf * nf + 3 * nf) * ("cor_coupling" in t) + 12 * nf * ("coupling" in t)
+    cost += 6 * nf * nf * (w2 or w3) + 6 * nf * w3
+    cost += (6 * nf * nf + 12 * nf) * ("cor_coupling" in t) + 12 * nf * ("coupling" in t)
     cost += 6 * nf * nf * ("geo_stiff" in t)
     return float(cost)
 

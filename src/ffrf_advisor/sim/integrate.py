@@ -18,14 +18,12 @@ from typing import Callable
 import numpy as np
 import scipy.linalg as sla
 
+from ..names import ADAPTIVE, FIXED, INTEGRATORS  # noqa: F401 (defined in names: the CLI's help lists them)
 from .loads import Loads
 from .model import Model
 
-FIXED = ("rk4", "rk4-lie", "midpoint")
-ADAPTIVE = ("dop853", "scipy-dop853", "rk45", "radau", "bdf", "lsoda")
 SCIPY_NAMES = {"dop853": "DOP853", "scipy-dop853": "DOP853", "rk45": "RK45", "radau": "Radau", "bdf": "BDF",
                "lsoda": "LSODA"}
-INTEGRATORS = FIXED + ADAPTIVE
 REASONS = {1: "state not finite or overflowing", 2: "quaternion norm lost"}
 NEWTON_TOL = 1e-12   # relative size of the last Newton correction of the implicit midpoint rule
 NEWTON_MAX = 20
@@ -73,11 +71,11 @@ class Rhs:
 
     def __init__(self, model: Model, loads: Loads = Loads(), budget: float = np.inf):
         from . import kernels  # lazy: the compiler loads only when a simulation runs
-        self.k, self.m, self.loads, self.nfev, self.budget = kernels, model, loads, 0, budget
-        self.zero3, self.zf, self.work = np.zeros(3), np.zeros(model.nf), kernels.workspace(model.nf)
+        self.k, self.model, self.loads, self.nfev, self.budget = kernels, _compiled_model(model), loads, 0, budget
+        self.zero3, self.zf = np.zeros(3), np.zeros(model.nf)
 
     def __call__(self, t: float, y: np.ndarray) -> np.ndarray:
-        m, L = self.m, self.loads
+        L = self.loads
         self.nfev += 1
         if self.nfev > self.budget:
             raise OverBudget(f"work budget of {self.budget} right-hand sides spent at t = {t:.6g} (stiff, or "
@@ -87,8 +85,7 @@ class Rhs:
         pres = L.prescribed is not None
         w, wd = (np.asarray(v, float) for v in L.prescribed(t)) if pres else (self.zero3, self.zero3)
         out = np.empty_like(y)
-        self.k.rhs_into(np.ascontiguousarray(y, dtype=float), out, m.flags, m.I0, m.Ibar, m.Sbar, m.W3k,
-                        m.eigenvalues, m.damping, m.G, tau, fext, pres, w, wd, self.work)
+        self.k.rhs_into(np.ascontiguousarray(y, dtype=float), out, self.model, tau, fext, pres, w, wd)
         return out
 
 
@@ -120,15 +117,14 @@ def integrate(model: Model, y0: np.ndarray, t_end: float, method: str = "rk4", s
 def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
     """RK4 entirely in compiled code, in chunks of about 1 % so a progress bar can follow."""
     from . import kernels
-    m = model
+    compiled = _compiled_model(model)
     out = np.empty((nsteps // every + 1, len(y0)))
     chunk = every * max(1, (nsteps // every) // 100)
     done, code, start, y = 0, 0, time.perf_counter(), y0
     while done < nsteps and code == 0:
         n = min(chunk, nsteps - done)
         part = np.empty((n // every + 1, len(y0)))
-        steps, code = kernels.rk4_loop(y, h, n, every, lie, part, m.flags, m.I0, m.Ibar, m.Sbar, m.W3k,
-                                       m.eigenvalues, m.damping, m.G)
+        steps, code = kernels.rk4_loop(y, h, n, every, lie, part, compiled)
         rows = steps // every if code else n // every
         out[done // every:done // every + rows + 1] = part[:rows + 1]
         done += steps
@@ -142,9 +138,10 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
 
 
 def _compiled_model(m: Model) -> tuple:
-    """The model as the compiled loops read it (``kernels.rhs_loaded``), with its scratch workspace."""
+    """The model as the compiled loops read it (``kernels.rhs_into``): the compact Sbar blocks (sim.model), with
+    its scratch workspace."""
     from . import kernels
-    return (m.flags, m.I0, m.Ibar, m.Sbar, m.W3k, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf))
+    return (m.flags, m.I0, m.Ibar, m.diag, m.off, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf))
 
 
 MIDPOINT_FAILURES = {1: REASONS[1], 2: REASONS[2], 3: "Newton iteration did not converge"}

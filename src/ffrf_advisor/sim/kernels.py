@@ -6,12 +6,17 @@ numba (LLVM, the usual JIT compiler of the scientific Python stack, kept on
 PyPI with wheels for current numpy) compiles these loops to machine code.
 Only the simulator imports this module, so ``analyze`` does not pay for the
 compiler. Flags follow terms.IDS: gyro0 cf1 inertia_lin cor1 inertia_quad
-cf2 cor_quad coupling cor_coupling geo_stiff.
+cf2 cor_quad coupling cor_coupling geo_stiff. Sbar comes in the compact
+strips of sim.model (about 4.5 nf^2 numbers): one pass over a strip of
+four rows gives four dot products and the transpose's share, so the W2
+and W3 terms read each stored number once per evaluation.
 """
 from __future__ import annotations
 
 import numba as nb
 import numpy as np
+
+from .model import N_ROT, STRIP, strip_start
 
 CF1, INERTIA_LIN, COR1, INERTIA_QUAD, CF2, COR_QUAD, COUPLING, COR_COUPLING, GEO_STIFF = range(1, 10)
 FAIL_NONE, FAIL_NONFINITE, FAIL_QUATERNION = 0, 1, 2
@@ -25,6 +30,7 @@ SYM_L = np.array([0, 1, 2, 1, 2, 2])
 FASTMATH = {"reassoc", "contract"}
 jit = nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 inline = nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")  # small helpers, inlined
+_strip_start = inline(strip_start)
 
 
 @inline
@@ -55,10 +61,10 @@ def _cross_sub(a, b, out):
 
 @jit
 def workspace(nf):
-    """Scratch arrays of one right-hand side (J, M, G, S: 3 x 3; fr, b: 3; P: 3 x 3 x nf; C: 3 x nf),
-    so that an evaluation allocates nothing."""
+    """Scratch arrays of one right-hand side (J, M, G, S: 3 x 3; fr, b: 3; P: the block products of q and
+    q', 2 x 3 x 3 x nf; C: C(q) and C(q'), 2 x 3 x nf), so that an evaluation allocates nothing."""
     return (np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3),
-            np.empty((3, 3, nf)), np.empty((3, nf)))
+            np.empty((2, 3, 3, nf)), np.empty((2, 3, nf)))
 
 
 @inline
@@ -122,35 +128,63 @@ def _add_centrifugal(B, w, ff):
 
 
 @inline
-def _block_products(Sbar, q, P):
-    """P[a, b] = Sbar[a, b] q (3, 3, nf): the nine block products all W2 terms use."""
-    nf = q.shape[0]
-    for a in range(3):
-        for b in range(3):
-            for r in range(nf):
-                s = 0.0
-                for t in range(nf):
-                    s += Sbar[a, b, r, t] * q[t]
-                P[a, b, r] = s
+def _dot4_axpy(S, o, w, x, c, r, acc):
+    """Four stored rows ``S[o + i w:o + (i + 1) w]`` (i < 4) against x[c:c + w]: returns their four dot products
+    and adds ``sum_i row_i x[r + i]`` to acc[c:c + w] (rows past x's end are zero): one read of each entry
+    serves a block's product and its transpose's."""
+    n = x.shape[0]
+    x0, x1, x2, x3 = x[r], x[min(r + 1, n - 1)], x[min(r + 2, n - 1)], x[min(r + 3, n - 1)]
+    R0, R1, R2, R3 = S[o:o + w], S[o + w:o + 2 * w], S[o + 2 * w:o + 3 * w], S[o + 3 * w:o + 4 * w]
+    xs, a = x[c:c + w], acc[c:c + w]
+    s0 = s1 = s2 = s3 = 0.0
+    for t in range(w):
+        e0, e1, e2, e3, xt = R0[t], R1[t], R2[t], R3[t], xs[t]
+        s0 += e0 * xt
+        s1 += e1 * xt
+        s2 += e2 * xt
+        s3 += e3 * xt
+        a[t] += e0 * x0 + e1 * x1 + e2 * x2 + e3 * x3
+    return s0, s1, s2, s3
 
 
 @inline
-def _coupling(W3k, q, C):
-    """C = Qf^T W3: C[k] = W3k[k]^T q (3 x nf)."""
-    nf = q.shape[0]
+def _symmetric_products(diag, x, P):
+    """P[k, k] = Sbar[k, k] x = U x + U^T x from the strips (sim.model.strips) of the upper halves U of the
+    symmetric diagonal blocks (theory 3), diagonal halved."""
+    n = x.shape[0]
     for k in range(3):
-        for s in range(nf):
-            C[k, s] = 0.0
+        Pk = P[k, k]
+        Pk[:] = 0.0
+        o = 0
+        for r in range(0, n, STRIP):
+            c = _strip_start(r, n, True)
+            s = _dot4_axpy(diag[k], o, n - c, x, c, r, Pk)
+            for i in range(min(STRIP, n - r)):
+                Pk[r + i] += s[i]
+            o += STRIP * (n - c)
+
+
+@inline
+def _pair_products(off, y, nv, P):
+    """P[v, a, b] = off[k] x_v and P[v, b, a] = off[k]^T x_v for the cyclic (k, a, b), x_0 = q, x_1 = q' (the
+    first ``nv``), off[k] in strips (sim.model.strips): with off[k] = Sbar[a, b] the six off-diagonal block
+    products (Sbar[b, a] = Sbar[a, b]^T), each strip read from memory once for both vectors."""
+    nf = (y.shape[0] - N_ROT) // 2
     for k in range(3):
-        for r in range(nf):
-            qr = q[r]
-            for s in range(nf):
-                C[k, s] += W3k[k, r, s] * qr
+        a, b = (k + 1) % 3, (k + 2) % 3
+        P[:nv, b, a] = 0.0
+        for r in range(0, nf, STRIP):
+            for v in range(nv):
+                x = y[N_ROT + v * nf:N_ROT + (v + 1) * nf]
+                s = _dot4_axpy(off[k], r * nf, nf, x, 0, r, P[v, b, a])
+                for i in range(min(STRIP, nf - r)):
+                    P[v, a, b, r + i] = s[i]
 
 
 @inline
 def _coupling_from_products(P, C):
-    """C[k] = sum_ab eps_kab Sbar[a, b]^T q = sum_ab eps_kab P[b, a], free once P is known."""
+    """C[k] = W3k[k]^T x = sum_ab eps_kab Sbar[a, b]^T x = sum_ab eps_kab P[b, a] with P[a, b] = Sbar[a, b] x:
+    the rows of C(x) = Qf(x)^T W3 (theory 3), free once the block products of x are known."""
     for s in range(C.shape[1]):
         C[0, s] = P[2, 1, s] - P[1, 2, s]
         C[1, s] = P[0, 2, s] - P[2, 0, s]
@@ -188,8 +222,10 @@ def _solve_schur(J, C, fr, ff, S, b, wd):
 
 
 @jit
-def rhs_into(y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, tau, fext, prescribed, wp, wdp, work):
-    """dy/dt of ``y = [p, w, q, q']`` into ``out``; with ``prescribed`` w = wp and w' = wdp are given."""
+def rhs_into(y, out, model, tau, fext, prescribed, wp, wdp):
+    """dy/dt of ``y = [p, w, q, q']`` into ``out`` (theory 5); ``model`` = (flags, I0, Ibar, diag, off, lam, dmp,
+    G, workspace) as sim.integrate._compiled_model packs it; with ``prescribed`` w = wp and w' = wdp are given."""
+    flags, I0, Ibar, diag, off, lam, dmp, G, work = model
     nf = lam.shape[0]
     q = y[7:7 + nf]
     qd = y[7 + nf:7 + 2 * nf]
@@ -210,31 +246,31 @@ def rhs_into(y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, tau, fext, prescri
         _sub_matvec(S, w, fr)
     if flags[CF1]:
         _add_centrifugal(Ibar, w, ff)
-    if flags[INERTIA_QUAD] or flags[CF2] or flags[COR_QUAD]:
-        _block_products(Sbar, q, P)
-        if flags[INERTIA_QUAD]:
-            _add_quadratic_inertia(P, q, 0.5, Gq, J)
-        if flags[COR_QUAD]:
-            _zero3x3(S)
-            _add_quadratic_inertia(P, qd, 1.0, Gq, S)
-            _sub_matvec(S, w, fr)
-        if flags[CF2]:
-            _add_centrifugal(P, w, ff)
-    if (flags[COUPLING] or flags[COR_COUPLING]) and (flags[INERTIA_QUAD] or flags[CF2] or flags[COR_QUAD]):
-        _coupling_from_products(P, C)
-    elif flags[COUPLING] or flags[COR_COUPLING]:
-        _coupling(W3k, q, C)
+    w2 = flags[INERTIA_QUAD] or flags[CF2] or flags[COR_QUAD]
+    w3 = flags[COUPLING] or flags[COR_COUPLING]
+    if w2:
+        _symmetric_products(diag, q, P[0])
+    if w2 or w3:
+        _pair_products(off, y, 2 if flags[COR_COUPLING] else 1, P)
+    if flags[INERTIA_QUAD]:
+        _add_quadratic_inertia(P[0], q, 0.5, Gq, J)
+    if flags[COR_QUAD]:
+        _zero3x3(S)
+        _add_quadratic_inertia(P[0], qd, 1.0, Gq, S)
+        _sub_matvec(S, w, fr)
+    if flags[CF2]:
+        _add_centrifugal(P[0], w, ff)
+    if w3:
+        _coupling_from_products(P[0], C[0])
     if flags[COR_COUPLING]:
+        _coupling_from_products(P[1], C[1])
         for k in range(3):
             b[k] = 0.0
             for s in range(nf):
-                b[k] += C[k, s] * qd[s]
+                b[k] += C[0, k, s] * qd[s]
         _cross_sub(w, b, fr)
-        for k in range(3):
-            for r in range(nf):
-                c = 2.0 * w[k] * qd[r]
-                for s in range(nf):
-                    ff[s] -= c * W3k[k, r, s]
+        for s in range(nf):  # -2 W3^T Qf' w = -2 sum_k w_k C(q')[k]
+            ff[s] -= 2.0 * (w[0] * C[1, 0, s] + w[1] * C[1, 1, s] + w[2] * C[1, 2, s])
     if flags[GEO_STIFF]:
         _geometric_stiffness(G, w, q, ff)
     for k in range(3):  # gyroscopic term with the set's I_TT
@@ -245,12 +281,12 @@ def rhs_into(y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, tau, fext, prescri
         for k in range(3):
             wd[k] = wdp[k]
     elif flags[COUPLING]:
-        _solve_schur(J, C, fr, ff, S, b, wd)
+        _solve_schur(J, C[0], fr, ff, S, b, wd)
     else:
         _solve3(J, fr, wd)
     if flags[COUPLING]:
         for s in range(nf):
-            ff[s] -= C[0, s] * wd[0] + C[1, s] * wd[1] + C[2, s] * wd[2]
+            ff[s] -= C[0, 0, s] * wd[0] + C[0, 1, s] * wd[1] + C[0, 2, s] * wd[2]
     for r in range(nf):
         out[7 + r] = qd[r]
     p = y[0:4]
@@ -280,40 +316,35 @@ def loads_at(t, prog, tau, w, wd):
 @jit
 def rhs_loaded(t, y, out, model, prog, fext, scratch):
     """``rhs_into`` at time t with the loads of the packed LoadProgram ``prog`` (sim.loads) and constant modal
-    forces ``fext``; ``model`` = (flags, I0, Ibar, Sbar, W3k, lam, dmp, G, workspace), ``scratch``: three 3-vectors."""
-    flags, I0, Ibar, Sbar, W3k, lam, dmp, G, work = model
+    forces ``fext``; ``scratch``: three 3-vectors."""
     tau, w, wd = scratch
     loads_at(t, prog, tau, w, wd)
-    rhs_into(y, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G, tau, fext, prog[8] != 0.0, w, wd, work)
+    rhs_into(y, out, model, tau, fext, prog[8] != 0.0, w, wd)
 
 
-@jit
-def _qmul(a, b, out):
-    """out = a * b (quaternions, scalar first)."""
-    out[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3]
-    out[1] = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2]
-    out[2] = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1]
-    out[3] = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]
-
-
-@jit
+@inline
 def _rotate_by(p, theta, out):
-    """out = p * exp(theta): the body turned by the rotation vector theta (body frame)."""
+    """out[0:4] = p[0:4] * exp(theta): the body turned by the rotation vector theta (body frame); out may be p."""
     angle = np.sqrt(theta[0] ** 2 + theta[1] ** 2 + theta[2] ** 2)
-    e = np.empty(4)
-    e[0] = np.cos(0.5 * angle)
+    e0 = np.cos(0.5 * angle)
     f = 0.5 if angle < 1e-8 else np.sin(0.5 * angle) / angle
-    e[1], e[2], e[3] = f * theta[0], f * theta[1], f * theta[2]
-    _qmul(p, e, out)
+    e1, e2, e3 = f * theta[0], f * theta[1], f * theta[2]
+    p0, p1, p2, p3 = p[0], p[1], p[2], p[3]
+    out[0] = p0 * e0 - p1 * e1 - p2 * e2 - p3 * e3
+    out[1] = p0 * e1 + p1 * e0 + p2 * e3 - p3 * e2
+    out[2] = p0 * e2 - p1 * e3 + p2 * e0 + p3 * e1
+    out[3] = p0 * e3 + p1 * e2 - p2 * e1 + p3 * e0
 
 
-@jit
+@inline
 def _dexpinv(theta, w, out):
     """Theta' = w + 1/2 theta x w + 1/12 theta x (theta x w): p = p_n exp(theta), p' = p (0, w) / 2 (RKMK4)."""
-    c = np.cross(theta, w)
-    cc = np.cross(theta, c)
-    for k in range(3):
-        out[k] = w[k] + 0.5 * c[k] + cc[k] / 12.0
+    c0 = theta[1] * w[2] - theta[2] * w[1]
+    c1 = theta[2] * w[0] - theta[0] * w[2]
+    c2 = theta[0] * w[1] - theta[1] * w[0]
+    out[0] = w[0] + 0.5 * c0 + (theta[1] * c2 - theta[2] * c1) / 12.0
+    out[1] = w[1] + 0.5 * c1 + (theta[2] * c0 - theta[0] * c2) / 12.0
+    out[2] = w[2] + 0.5 * c2 + (theta[0] * c1 - theta[1] * c0) / 12.0
 
 
 @jit
@@ -328,17 +359,16 @@ def _check(y, p_norm):
 
 
 @jit
-def rk4_loop(y0, h, nsteps, every, lie, out, flags, I0, Ibar, Sbar, W3k, lam, dmp, G):
+def rk4_loop(y0, h, nsteps, every, lie, out, model):
     """Fixed-step RK4 of a free body (no loads); rows of ``out`` every ``every`` steps (row 0: y0).
 
     ``lie`` False: classical RK4 on the quaternion, normalised after each
     step. True: RKMK4, the quaternion advanced by ``p_n exp(Theta)`` with the
     stage rotation vectors mapped through dexp^-1, so |p| = 1 to round-off.
-    Returns (steps done, failure code).
+    The stages allocate nothing. Returns (steps done, failure code).
     """
     n = y0.shape[0]
-    zero3, zf = np.zeros(3), np.zeros(lam.shape[0])
-    work = workspace(lam.shape[0])
+    zero3, zf = np.zeros(3), np.zeros((n - N_ROT) // 2)
     y = y0.copy()
     ys = np.empty(n)
     k = np.empty((4, n))
@@ -353,8 +383,8 @@ def rk4_loop(y0, h, nsteps, every, lie, out, flags, I0, Ibar, Sbar, W3k, lam, dm
             if lie:
                 for j in range(3):
                     theta[j] = 0.0 if i == 0 else a[i] * h * th[i - 1, j]
-                _rotate_by(y[0:4], theta, ys[0:4])
-            rhs_into(ys, k[i], flags, I0, Ibar, Sbar, W3k, lam, dmp, G, zero3, zf, False, zero3, zero3, work)
+                _rotate_by(y, theta, ys)
+            rhs_into(ys, k[i], model, zero3, zf, False, zero3, zero3)
             if lie:
                 _dexpinv(theta, ys[4:7], th[i])
         for j in range(4, n):
@@ -362,7 +392,7 @@ def rk4_loop(y0, h, nsteps, every, lie, out, flags, I0, Ibar, Sbar, W3k, lam, dm
         if lie:
             for j in range(3):
                 theta[j] = h / 6.0 * (th[0, j] + 2.0 * th[1, j] + 2.0 * th[2, j] + th[3, j])
-            _rotate_by(y[0:4].copy(), theta, y[0:4])
+            _rotate_by(y, theta, y)
             norm = np.sqrt(y[0] ** 2 + y[1] ** 2 + y[2] ** 2 + y[3] ** 2)
         else:
             for j in range(4):

@@ -10,6 +10,14 @@ from these blocks (never as dense 3nf x 3nf products):
   ``W3k[k] = sum_ab eps_kab Sbar[a, b]`` (the skew blocks of W3);
 - cf1 ``= |w|^2 tr(Ibar) - sum_kl w_k w_l Ibar[k, l]``;
 - cf2 ``= |w|^2 sum_m Sbar[m, m] q - sum_kl w_k w_l Sbar[l, k] q``.
+
+The compiled kernels (sim.kernels) read Sbar compactly, about 4.5 nf^2
+numbers instead of 12 nf^2 (Sbar and W3k): the upper halves of the
+symmetric diagonal blocks ``Sbar[k, k]`` (``diag``) and one block of each
+off-diagonal pair, ``off[k] = Sbar[a, b]`` for the cyclic ``(k, a, b)``
+(``Sbar[b, a] = Sbar[a, b]^T``), whose skew part is ``W3k[k]``; each
+stored in strips of STRIP rows (``strips``), so that one pass over a
+strip gives both a block's product and its transpose's.
 """
 from __future__ import annotations
 
@@ -22,6 +30,8 @@ from ..errors import FFRFError
 from ..terms import IDS, is_lagrangian, needed_invariants, ordered
 
 N_ROT = 7  # quaternion (4) and angular velocity (3) lead the state vector
+STRIP = 4  # rows per strip of the kernels' block storage (kernels._dot4_axpy reads four rows at once)
+WIDTH_STEP = 16  # strip widths in multiples of this where free: a vector loop body (4 x 4 doubles on AVX2)
 MAX_DAMPING = 10.0  # modal damping ratios above make the modes stiff beyond any integrator's budget
 
 
@@ -42,6 +52,8 @@ class Model:
     eigenvalues: np.ndarray
     damping: np.ndarray
     G: np.ndarray         # (6, nf, nf), zeros without geo_stiff
+    diag: np.ndarray      # (3, ~nf^2 / 2): strips of the upper halves of Sbar[k, k]; zeros without W2 terms
+    off: np.ndarray       # (3, ~nf^2): strips of Sbar[a, b] for cyclic (k, a, b), of W3k / 2 with W3 alone
 
     @property
     def nf(self) -> int:
@@ -78,10 +90,44 @@ def build_model(body: FlexibleBody, terms, damping=0.0, G: np.ndarray | None = N
     need_w3 = any(t in terms for t in ("coupling", "cor_coupling"))
     Sbar = np.array(ints.Sbar) if need_w2 else np.zeros((3, 3, nf, nf))
     W3k = ints.W3().reshape(3, nf, nf) if need_w3 else np.zeros((3, nf, nf))
+    diag, off = compact_blocks(Sbar, 0.5 * W3k if need_w3 and not need_w2 else None)
     return Model(terms=terms, I0=np.array(body.I0), Ibar=np.array(ints.Ibar), Sbar=np.ascontiguousarray(Sbar),
                  W3k=np.ascontiguousarray(W3k), eigenvalues=np.array(body.eigenvalues),
                  damping=2 * zeta * np.sqrt(np.abs(body.eigenvalues)),
-                 G=np.zeros((6, nf, nf)) if G is None else np.ascontiguousarray(G, dtype=float))
+                 G=np.zeros((6, nf, nf)) if G is None else np.ascontiguousarray(G, dtype=float),
+                 diag=diag, off=off)
+
+
+def compact_blocks(Sbar: np.ndarray, skew: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(diag, off) of Model from Sbar (3, 3, nf, nf), each block the mean of its pair (Sbar[b, a]^T and
+    Sbar[a, b]); ``skew`` (3, nf, nf) replaces the off-diagonal blocks when only their skew parts W3k count
+    (a body may carry W3 without Sbar)."""
+    pair = [0.5 * (Sbar[(k + 1) % 3, (k + 2) % 3] + Sbar[(k + 2) % 3, (k + 1) % 3].T) for k in range(3)]
+    off = pair if skew is None else skew
+    return (np.stack([strips(0.5 * (Sbar[k, k] + Sbar[k, k].T), upper=True) for k in range(3)]),
+            np.stack([strips(B, upper=False) for B in off]))
+
+
+def strip_start(r: int, nf: int, upper: bool) -> int:
+    """First stored column of the strip from row r: 0, or for an upper strip its diagonal r moved left until the
+    width is a multiple of WIDTH_STEP (or 0); the entries left of the diagonal are stored as zeros."""
+    return max(0, nf - WIDTH_STEP * -(-(nf - r) // WIDTH_STEP)) if upper else 0
+
+
+def strips(B: np.ndarray, upper: bool) -> np.ndarray:
+    """B (nf x nf) as strips of STRIP rows from their ``strip_start`` on, each row-major, rows past nf zero.
+    ``upper``: B's upper half with its diagonal halved, U (B symmetric: B x = U x + U^T x)."""
+    nf, parts = len(B), []
+    for r in range(0, nf, STRIP):
+        c = strip_start(r, nf, upper)
+        strip = np.zeros((STRIP, nf - c))
+        strip[:min(STRIP, nf - r)] = B[r:r + STRIP, c:]
+        if upper:
+            strip = np.triu(strip, r - c)
+            rows = np.arange(min(STRIP, nf - r))
+            strip[rows, r - c + rows] *= 0.5
+        parts.append(strip.ravel())
+    return np.concatenate(parts) if parts else np.zeros(0)
 
 
 

@@ -1,6 +1,7 @@
 """The .ffrf.h5 format: round trip, lazy reading, every reader error, atomic writes."""
 from __future__ import annotations
 
+import os
 from dataclasses import replace
 from pathlib import Path
 
@@ -170,6 +171,24 @@ def test_a_terminated_writer_leaves_no_temporary_and_a_killed_ones_is_swept(tmp_
     time.sleep(0.01)
     write_body(block_body, target)
     assert sorted(p.name for p in tmp_path.iterdir()) == [".other.ffrf.h5.1.abc.tmp", "out.ffrf.h5"]
+
+
+def test_a_temporary_is_this_processs_before_it_exists(tmp_path, monkeypatch):
+    """A SIGTERM handled between any two bytecodes finds the temporary noted: at the moment the file is
+    created its name is already among this process's temporaries (the race a CI run hit with mkstemp)."""
+    from ffrf_advisor.io import atomic
+    seen = []
+    real_open = os.open
+
+    def watching_open(path, flags, mode=0o777):
+        fd = real_open(path, flags, mode)
+        seen.append(Path(path) in atomic._TEMPORARIES)
+        return fd
+    monkeypatch.setattr(atomic.os, "open", watching_open)
+    with atomic.atomic_path(tmp_path / "out.html") as tmp:
+        tmp.write_text("x")
+    assert seen and seen[0] is True
+    assert not atomic._TEMPORARIES and sorted(p.name for p in tmp_path.iterdir()) == ["out.html"]
 
 
 def test_writes_are_bit_for_bit_reproducible(tmp_path, block_body):

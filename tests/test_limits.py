@@ -147,7 +147,8 @@ def _segfault():
 
 
 PARENT = """
-import os, sys, time
+import os, signal, sys, time
+signal.signal(signal.SIGINT, signal.default_int_handler)  # Python ignores SIGINT when started with it ignored
 from ffrf_advisor.io import guard
 def child():
     open(sys.argv[1], "w").write(str(os.getpid()))

@@ -260,8 +260,8 @@ def test_verify_command_on_a_small_body_writes_json_and_figures(tmp_path):
 
 
 def test_quick_verify_gives_the_scenes_and_the_verdict_without_the_studies(tmp_path):
-    """verify --quick (issue 24): the same verdict and errors as the whole verification, the studies null in
-    the JSON (schema verify.json) and named as left out in the text."""
+    """verify --quick (issue 24): the same verdict and errors as the whole verification (and on --jobs 2), the
+    studies null in the JSON (schema verify.json) and named as left out in the text."""
     body = modal_body(box_mesh([300.0, 20.0, 10.0], [6, 1, 1], "hexahedron20"), STEEL, 4, name="bar")
     path = tmp_path / "bar.ffrf.h5"
     write_body(body, path)
@@ -272,6 +272,8 @@ def test_quick_verify_gives_the_scenes_and_the_verdict_without_the_studies(tmp_p
     whole = json.loads(CliRunner().invoke(app, [*args, "--json"]).output)
     assert quick["verdict"] == whole["verdict"] and whole["stability"] is not None
     assert [r["errors"] for r in quick["results"]] == [r["errors"] for r in whole["results"]]
+    parallel = json.loads(CliRunner().invoke(app, [*args, "--quick", "--jobs", "2", "--json"]).output)
+    assert [r["errors"] for r in parallel["results"]] == [r["errors"] for r in quick["results"]]
     text = CliRunner().invoke(app, [*args, "--quick"]).output
     assert "quick: no work-precision, stability or Campbell studies" in text
     full = next(r["terms"] for r in quick["results"] if r["set"] == "IV (full)")

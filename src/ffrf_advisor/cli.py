@@ -687,6 +687,8 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    output: Optional[Path] = typer.Option(None, "--output", "-o", help="Directory for the figures."),
                    quick: bool = typer.Option(False, "--quick", help="The scenes and the verdict only: no "
                                               "work-precision, stability or Campbell studies."),
+                   jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Local processes for the scenes' "
+                                            "runs (each run's repeats stay serial; runs share the cores)."),
                    as_json: VerifyJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
                    widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
                    threshold: Threshold = None, config: Config = None, rules: Rules = None,
@@ -708,7 +710,7 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
     result = run_analysis(b, options)
     h = None if step is None else simulation_setup(b, 1.0, step, None, integrator).step
     st = run_study(result, names, tolerance, integrator, h, rtol, repeats, output, SceneOptions(axis=axis),
-                   criterion, quick)
+                   criterion, quick, jobs)
     data = study_json(st, str(body))
     if as_json:
         _print_json(data)

@@ -8,8 +8,8 @@ the same target once its process is gone.
 from __future__ import annotations
 
 import os
+import secrets
 import signal
-import tempfile
 import threading
 from contextlib import contextmanager
 from contextvars import ContextVar
@@ -76,14 +76,7 @@ def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[
     target = Path(target)
     check_target(target, overwrite)
     _sweep_stale(target)
-    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})  # SIGTERM waits until tmp is known
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=target.parent)
-        os.close(fd)
-        tmp = Path(tmp)
-        _TEMPORARIES.add(tmp)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+    tmp = _new_temporary(target)
     try:
         os.chmod(tmp, _mode(target))
         with terminate_cleanly():
@@ -97,6 +90,21 @@ def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[
     finally:
         tmp.unlink(missing_ok=True)
         _TEMPORARIES.discard(tmp)
+
+
+def _new_temporary(target: Path) -> Path:
+    """Create ``.NAME.PID.RANDOM.tmp`` beside ``target``, noted as this process's before it exists: a SIGTERM
+    handled at any moment (Python runs its handler between any two bytecodes) removes it or finds none."""
+    while True:
+        tmp = target.parent / f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+        _TEMPORARIES.add(tmp)
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+            return tmp
+        except BaseException as e:
+            _TEMPORARIES.discard(tmp)
+            if not isinstance(e, FileExistsError):
+                raise
 
 
 def _sweep_stale(target: Path) -> None:

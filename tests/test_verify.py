@@ -281,6 +281,26 @@ def test_quick_verify_gives_the_scenes_and_the_verdict_without_the_studies(tmp_p
     assert len(same) >= 2 and set(same) == {1.0}  # the advised set is the full one here: no timer noise
 
 
+def test_verify_fail_on_ends_with_1_on_an_unsafe_advice_and_0_when_it_holds(tmp_path):
+    """verify --fail-on (issue 25): the paper's rules with every threshold raised to 1e9 advise level I for a
+    bar at 200 rad/s, which the scene calls unsafe: exit 1 on unsafe and on conservative; the default advice
+    holds there: exit 0 on both; without --fail-on, 0 whatever the verdict."""
+    body = modal_body(box_mesh([300.0, 20.0, 10.0], [6, 1, 1], "hexahedron20"), STEEL, 4, name="bar")
+    path = tmp_path / "bar.ffrf.h5"
+    write_body(body, path)
+    args = ["verify", str(path), "--speed", "200rad/s", "--scene", "free-spin", "--axis", "1", "--repeat", "1",
+            "--quick", "--json"]
+    raised = ["--rules", "paper"] + [a for k in ("widening_stress", "dI_L", "dI_Q", "dI_fT", "dI_Tf", "r_cf2",
+                                                 "speed_ratio", "r_cor") for a in ("--threshold", f"{k}=1e9")]
+    for extra, verdict, code in (([], "agree", 0), (raised, "unsafe", 1)):
+        for fail_on in ("unsafe", "conservative"):
+            r = CliRunner().invoke(app, [*args, *extra, "--fail-on", fail_on])
+            assert (json.loads(r.output)["verdict"]["verdict"], r.exit_code) == (verdict, code), fail_on
+    assert CliRunner().invoke(app, [*args, *raised]).exit_code == 0
+    bad = CliRunner().invoke(app, [*args, "--fail-on", "sometimes"])
+    assert bad.exit_code == 2 and "--fail-on 'sometimes': expected one of never, unsafe, conservative" in bad.output
+
+
 # ---------------------------------------------------------------- sweeps
 @pytest.mark.slow
 def test_a_sweep_on_a_dask_cluster_gives_the_errors_of_the_local_run(tmp_path):

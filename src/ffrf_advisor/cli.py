@@ -689,6 +689,9 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                                               "work-precision, stability or Campbell studies."),
                    jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Local processes for the scenes' "
                                             "runs (each run's repeats stay serial; runs share the cores)."),
+                   fail_on: str = typer.Option("never", "--fail-on", metavar="never|unsafe|conservative",
+                                               help="Exit 1 when the verdict is unsafe (or no verdict), or also "
+                                                    "when it is conservative."),
                    as_json: VerifyJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
                    widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
                    threshold: Threshold = None, config: Config = None, rules: Rules = None,
@@ -698,11 +701,11 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
     from .report.console import verification_report
     from .report.verify_json import study_json
     from .sim.setup import simulation_setup
-    from .verify.checks import check_verify_options
+    from .verify.checks import FAILING, check_verify_options
     from .verify.scenes import SceneOptions
     from .verify.study import run_study
     names = list(scene or SCENES)
-    check_verify_options(names, tolerance, integrator, step, rtol, repeats, output, criterion)
+    check_verify_options(names, tolerance, integrator, step, rtol, repeats, output, criterion, fail_on)
     options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
                             threshold=threshold, config=config, spin_axis=spin_axis, tolerance=tolerance, rules=rules,
                             excitation=excitation)
@@ -716,3 +719,5 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
         _print_json(data)
     else:
         verification_report(out(), data)
+    if st.verification.verdict.verdict in FAILING[fail_on]:
+        raise typer.Exit(1)

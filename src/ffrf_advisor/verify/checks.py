@@ -9,9 +9,15 @@ from ..sim.integrate import FIXED, INTEGRATORS
 from .measures import CRITERIA
 from .scenes import SCENES
 
+# --fail-on: the verdicts that end verify with exit 1 (no verdict: the advice could not be checked)
+FAILING = {"never": (), "unsafe": ("unsafe", "no verdict"), "conservative": ("unsafe", "conservative", "no verdict")}
+
 
 def check_verify_options(scenes, tolerance: float, integrator: str, step: float | None, rtol: float,
-                         repeats: int, output: Path | None, criterion: str = "response") -> None:
+                         repeats: int, output: Path | None, criterion: str = "response",
+                         fail_on: str = "never") -> None:
+    if fail_on not in FAILING:
+        raise FFRFError(f"--fail-on {fail_on!r}: expected one of {', '.join(FAILING)}")
     if criterion not in CRITERIA:
         raise FFRFError(f"--criterion {criterion!r}: expected one of {', '.join(CRITERIA)}")
     unknown = [s for s in scenes if s not in SCENES]

@@ -6,19 +6,31 @@ Prints
      (target: at most 1.5x);
   2. `verify` of the shipped beam with the default scenes as a process, with the compiled integrators and
      with the former path (scipy's DOP853 calling the right-hand side from Python, the Python midpoint
-     rule: `sim.loads.Loads.compiled` patched to refuse), and their ratio (goal: at least 10x);
-  3. optionally (--sweep) the wall time of the zoo sweep `scripts/verify_zoo.py` (it rewrites
+     rule: `sim.loads.Loads.compiled` patched to refuse), and their ratio (goal: at least 10x; --skip-old:
+     the compiled path only);
+  3. `verify` of the shipped beam with the default scenes, and with --quick, as a process, over the sum of its
+     evaluations' compiled cost (target: at most 2x). The floor: each run whose evaluations `verify --json`
+     reports (the scenes' rows; without --quick also the work-precision points) contributes its count times
+     the compiled right-hand side of its term set per call (in a compiled loop at the state of 1), times
+     verify's --repeat (each such run is taken that often; the JSON gives one run's count). The references
+     (two DOP853 runs per scene, rtol 1e-10 and 1e-12), the stability studies and the Campbell study
+     (linearisations, evaluated by numpy) report no evaluations: the ratio covers only what is counted, and
+     the output names the counted parts;
+  4. optionally (--sweep) the wall time of the zoo sweep `scripts/verify_zoo.py` (it rewrites
      docs/verification.md).
 Timings are minima over repeats, taken serially.
 
-Run: python benchmarks/bench_verify.py [--repeat N] [--sweep]
+Run: python benchmarks/bench_verify.py [--repeat N] [--skip-old] [--sweep]
 """
 from __future__ import annotations
 
 import argparse
+import json
 import subprocess
 import sys
 import time
+from collections import Counter
+from functools import lru_cache
 from pathlib import Path
 
 import numba as nb
@@ -32,7 +44,9 @@ from ffrf_advisor.terms import FULL
 
 ROOT = Path(__file__).resolve().parent.parent
 BEAM = ROOT / "sample_bodies" / "beam.ffrf.h5"
-VERIFY = ["verify", str(BEAM), "--speed", "300rad/s"]
+VERIFY_REPEATS = 3  # verify's --repeat (its default): every counted run is taken this often
+VERIFY = ["verify", str(BEAM), "--speed", "300rad/s", "--repeat", str(VERIFY_REPEATS)]
+NEW_PATH = [sys.executable, "-m", "ffrf_advisor"]
 OLD_PATH = ("import sys; from ffrf_advisor.sim.loads import Loads; Loads.compiled = lambda self: None; "
             "from ffrf_advisor.cli import app; sys.argv = ['ffrf-advisor', *sys.argv[1:]]; app()")
 
@@ -52,14 +66,24 @@ def best(fn, repeat: int) -> float:
     return min(times)
 
 
+def beam_state(m) -> np.ndarray:
+    """The beam spinning at 300 rad/s about axis 3, every mode at 0.05."""
+    return initial_state(m, (0.0, 0.0, 300.0), np.full(m.nf, 0.05))
+
+
+def rhs_alone(m, repeat: int, n: int = 20000) -> float:
+    """Seconds per call of the compiled right-hand side of ``m`` at ``beam_state``, in a compiled loop (minimum)."""
+    y0 = beam_state(m)
+    out, args = np.empty_like(y0), (_compiled_model(m), np.zeros(3), np.zeros(m.nf))
+    _rhs_loop(y0, out, 1, *args)
+    return best(lambda: _rhs_loop(y0, out, n, *args), repeat) / n
+
+
 def per_evaluation(repeat: int) -> None:
+    """Part 1: the compiled integrators per evaluation over the right-hand side alone (full set)."""
     body = read_body(BEAM)
     m = build_model(body, FULL)
-    y0 = initial_state(m, (0.0, 0.0, 300.0), np.full(body.nf, 0.05))
-    out, n = np.empty_like(y0), 20000
-    args = (_compiled_model(m), np.zeros(3), np.zeros(m.nf))
-    _rhs_loop(y0, out, 1, *args)
-    alone = best(lambda: _rhs_loop(y0, out, n, *args), repeat) / n
+    y0, alone = beam_state(m), rhs_alone(m, repeat)
     runs = {"dop853 (rtol 1e-10)": lambda: integrate(m, y0, 0.02, "dop853", rtol=1e-10, atol=1e-14),
             "midpoint (h = 1e-5)": lambda: integrate(m, y0, 2e-3, "midpoint", 1e-5)}
     print(f"compiled right-hand side alone (beam, {body.nf} modes, full set): {alone * 1e6:.2f} us")
@@ -74,17 +98,60 @@ def timed(cmd: list[str], repeat: int) -> float:
     return best(lambda: subprocess.run(cmd, check=True, capture_output=True, cwd=ROOT), repeat)
 
 
+@lru_cache(maxsize=None)
+def set_cost(terms: tuple[str, ...], repeat: int) -> float:
+    """Seconds per call of the compiled right-hand side of the term set ``terms`` on the beam (``rhs_alone``)."""
+    return rhs_alone(build_model(read_body(BEAM), terms), repeat)
+
+
+def evaluations(data: dict) -> tuple[Counter, list[str]]:
+    """Right-hand-side evaluations per term set that ``verify --json`` (``data``) reports, one run each, and the
+    parts counted."""
+    rows, count = data["results"], Counter()
+    for r in rows:
+        count[tuple(r["terms"])] += r["rhs_evaluations"]
+    parts = [f"scenes' rows ({len(rows)} runs)"]
+    if data["work_precision"] is not None:
+        terms = {r["set"]: tuple(r["terms"]) for r in rows}
+        points = data["work_precision"]["points"]
+        for p in points:
+            count[terms[p["set"]]] += p["nfev"]
+        parts.append(f"work-precision points ({len(points)} runs)")
+    return count, parts
+
+
+def against_floor(flags: list[str], repeat: int, wall: float | None = None) -> None:
+    """Part 3 for ``verify [flags]``: its process wall (``wall`` when already timed) over the compiled floor."""
+    data = json.loads(subprocess.run([*NEW_PATH, *VERIFY, *flags, "--json"], check=True, capture_output=True,
+                                     cwd=ROOT, text=True).stdout)
+    count, parts = evaluations(data)
+    one = sum(n * set_cost(terms, max(repeat, 3)) for terms, n in count.items())
+    floor = VERIFY_REPEATS * one
+    wall = timed([*NEW_PATH, *VERIFY, *flags], repeat) if wall is None else wall
+    print(f"verify beam at 300 rad/s, default scenes{' '.join(['', *flags])}: process wall {wall:.1f} s (minimum of "
+          f"{repeat}), compiled floor {floor:.2f} s ({sum(count.values())} evaluations of {len(count)} term sets x "
+          f"{VERIFY_REPEATS} repeats): {wall / floor:.1f}x the floor (target <= 2; {wall / one:.1f}x with one run "
+          f"each)\n  counted: {', '.join(parts)}; not counted (no evaluations reported): the references"
+          + ("" if data["work_precision"] is None else ", the stability studies, the Campbell study"))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--skip-old", action="store_true", help="skip the former path of part 2")
     parser.add_argument("--sweep", action="store_true")
     args = parser.parse_args()
     per_evaluation(max(args.repeat, 3))
-    new = timed([sys.executable, "-m", "ffrf_advisor", *VERIFY], args.repeat)
-    old = timed([sys.executable, "-c", OLD_PATH, *VERIFY], args.repeat)
-    print(f"verify beam at 300 rad/s (default scenes about both stable axes, term sets, work-precision, stability, Campbell), process wall, "
-          f"minimum of {args.repeat}: compiled {new:.1f} s, former path {old:.1f} s: {old / new:.1f}x "
-          "(goal >= 10)")
+    new = timed([*NEW_PATH, *VERIFY], args.repeat)
+    head = (f"verify beam at 300 rad/s (default scenes about both stable axes, term sets, work-precision, stability, "
+            f"Campbell), process wall, minimum of {args.repeat}: compiled {new:.1f} s, former path")
+    if args.skip_old:
+        print(f"{head} skipped (--skip-old)")
+    else:
+        old = timed([sys.executable, "-c", OLD_PATH, *VERIFY], args.repeat)
+        print(f"{head} {old:.1f} s: {old / new:.1f}x (goal >= 10)")
+    against_floor([], args.repeat, new)
+    against_floor(["--quick"], args.repeat)
     if args.sweep:
         t0 = time.perf_counter()
         subprocess.run([sys.executable, "scripts/verify_zoo.py"], check=True, capture_output=True, cwd=ROOT)

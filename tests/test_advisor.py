@@ -285,3 +285,18 @@ def test_levels_and_term_sets_never_shrink_as_the_speed_grows(name):
         level, terms = LEVELS.index(adv.level), set(adv.terms)
         assert level >= previous_level and terms >= previous_terms, (s, adv.level, adv.terms)
         previous_level, previous_terms = level, terms
+
+
+@pytest.mark.parametrize("rules", ["predicted", "paper"])
+def test_a_speed_at_which_the_body_yields_is_named(rules):
+    """Issue 25: above the speed where the exact static centrifugal stress (theory 11) about the worst principal
+    axis reaches sigma_allow, a warning says the body yields; 1 % below it, none."""
+    b = read_body(SAMPLE, load_fe=False)
+    w_yield = np.sqrt(AmplitudeOptions.sigma_allow / b.static_centrifugal.sigma.max())  # rad/s (t-mm-N-s)
+
+    def yielding(w):
+        advice = analyze(b, Options(situation=guidelines.Situation(w_op=w, rules=rules))).advice
+        return [x for x in advice.warnings if x.startswith("the body yields at this speed")]
+    assert yielding(0.99 * w_yield) == [] and len(yielding(1.01 * w_yield)) == 1
+    assert "is 102.01% of sigma_allow" in yielding(1.01 * w_yield)[0]  # (1.01)^2
+    assert yielding(1.01 * w_yield)[0].endswith("sigma_allow = 500 N/mm^2")

@@ -265,13 +265,28 @@ def test_every_analysing_command_takes_the_same_analysis_options(command):
         assert body["situation"]["principal_axis"] == 3 and dI_Q["threshold"] == 0.5 and not dI_Q["fired"]
 
 
+@pytest.mark.slow  # a whole report: about 10 s
+def test_a_set_is_called_the_same_in_analyze_simulate_and_the_report(tmp_path):
+    """One word for one thing (issue 25): terms.lagrangian_status, in every text output."""
+    from ffrf_advisor.terms import lagrangian_status
+    args = [str(SAMPLE), "--speed", "300rad/s"]
+    terms = json.loads(runner.invoke(app, ["analyze", *args, "--json"]).stdout)["terms"]
+    status = lagrangian_status(terms)
+    assert status == "Lagrangian + geo_stiff" and lagrangian_status(["gyro0", "cf1"]) == "not Lagrangian"
+    assert f"({status})" in runner.invoke(app, ["analyze", *args]).stdout
+    simulated = runner.invoke(app, ["simulate", *args, "--terms", "advised", "--t-end", "1e-4"]).stdout
+    assert f"terms: {', '.join(terms)} ({status})" in " ".join(simulated.split())
+    runner.invoke(app, ["report", *args, "-o", str(tmp_path / "r.html")])
+    assert f"<dt>Lagrangian</dt><dd>{status}</dd>" in (tmp_path / "r.html").read_text()
+
+
 def test_analyze_and_compare_stay_right_at_80_columns():
     """Stacked evidence: every term of the advice appears whole, no line is wider than 80; compare's labels
     carry units and each body's values stay in its own column."""
     text = runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "300rad/s"], env={"COLUMNS": "80"}).stdout
     assert max(len(line) for line in text.splitlines()) <= 80
     advice = json.loads(runner.invoke(app, ["analyze", str(SAMPLE), "--speed", "300rad/s", "--json"]).stdout)
-    assert "FFRF terms Lagrangian" in text and "not Lagrangian" not in text  # geo_stiff is not a drift warning
+    assert "(Lagrangian + geo_stiff)" in text and "not Lagrangian" not in text  # geo_stiff is not a drift warning
     evidence = text[text.index("evidence per rule"):]
     assert all(term in evidence for term in advice["terms"] if term != "gyro0") and "…" not in evidence
     plate = SAMPLE.parent / "plate.ffrf.h5"

@@ -75,10 +75,30 @@ def test_info_and_convert_take_eigenvalues_and_density_for_meshes(tmp_path, beam
     assert runner.invoke(app, ["simulate", str(path), "--t-end", "1e-4"]).exit_code == 2
 
 
+def test_a_density_in_the_wrong_unit_is_named(tmp_path, beam):
+    """Issue 25: --density 7850 (kg/m^3) for a t-mm mesh makes the body 10^12 too heavy; info and analyze name
+    the likely mix-up, the right density gives no such warning, and the units assumed are stated."""
+    path = _mesh_file(tmp_path / "beam.vtu", beam)
+    lam = ",".join(repr(float(x)) for x in beam.eigenvalues)
+    for density, wrong in (("7850", True), (repr(STEEL.rho), False)):
+        got = json.loads(runner.invoke(app, ["info", str(path), "--eigenvalues", lam, "--density", density,
+                                             "--json"]).stdout)
+        named = [w for w in got["warnings"] if w.startswith("implausible density")]
+        assert bool(named) is wrong and all("a density in kg/m^3 read as t/mm^3?" in w for w in named)
+    text = runner.invoke(app, ["info", str(path), "--eigenvalues", lam, "--density", "7850"], env={"COLUMNS": "300"})
+    assert "units t-mm-N-s assumed (a meshio file states none)" in text.stdout and "a density in kg/m^3" in text.stdout
+    analysed = json.loads(runner.invoke(app, ["analyze", str(path), "--eigenvalues", lam, "--density", "7850",
+                                              "--speed", "1rad/s", "--json"]).stdout)
+    assert any(w.startswith("implausible density: mass 6.28e+09 t") for w in analysed["warnings"])
+
+
 def test_sample_refuses_a_bad_target_before_building(tmp_path):
     """Issue 23, item 12: a directory as target was refused only after the FE build (minutes)."""
     result = runner.invoke(app, ["sample", "carbody", "-o", str(tmp_path)])
     assert result.exit_code == 2 and "expected a regular file to write, got a directory" in result.output
+    read_only = runner.invoke(app, ["sample", "carbody", "-o", str(tmp_path / "x.vtu")])  # issue 25
+    assert read_only.exit_code == 2 and read_only.stderr == f"error: {tmp_path / 'x.vtu'}: format meshio can be " \
+        "read but not written\n"  # one line, and no step of the FE build reported before it
 
 
 def test_convert_with_young_and_poisson_computes_the_centrifugal_response(tmp_path, beam):

@@ -358,7 +358,7 @@ def test_simulate_command_writes_a_csv_that_parses_back(tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--integrator", "euler"], "--integrator"), (["--terms", "cor_full"], "--terms"),
-    (["--integrator", "rk4"], "--step"), (["--omega0", "1,2,3,4"], "--omega0"), (["--q0", "x"], "--q0"),
+    (["--integrator", "rk4"], "rk4: a fixed-step method; expected --step"), (["--omega0", "1,2,3,4"], "--omega0"), (["--q0", "x"], "--q0"),
     (["--t-end", "-1"], "--t-end"), (["-o", "out.txt"], "output")])
 def test_simulate_bad_options_exit_2_in_one_line(tmp_path, args, message):
     t_end = [] if "--t-end" in args else ["--t-end", "0.001"]

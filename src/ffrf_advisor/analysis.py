@@ -8,7 +8,7 @@ import numpy as np
 
 from .amplitudes import AmplitudeOptions, Amplitudes, q_max
 from .body import FlexibleBody
-from .checks import Check, check_warnings, run_checks
+from .checks import Check, check_warnings, density_warnings, run_checks
 from .errors import FFRFError
 from .guidelines import RULE_SETS, Advice, Situation, advise, check_thresholds
 from .predict import EXCITATIONS
@@ -80,5 +80,5 @@ def analyze(body: FlexibleBody, options: Options = Options()) -> Analysis:
     except FloatingPointError as e:
         raise FFRFError(f"{body.name}: analysis: expected numbers of physical size in the body and the options "
                         f"(--speed, --q-max, --sigma-allow, --q-cap), got {e}") from None
-    advice = replace(advice, warnings=check_warnings(list(checks)) + advice.warnings)
+    advice = replace(advice, warnings=check_warnings(list(checks)) + density_warnings(body) + advice.warnings)
     return Analysis(body, options, amp, sig, advice, checks)

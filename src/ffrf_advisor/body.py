@@ -278,9 +278,12 @@ class FlexibleBody:
             return self.fe.mesh.largest_dimension()
         if self.nodal is not None:
             return self.nodal.largest_dimension
+        return float(self.equivalent_box().max())
+
+    def equivalent_box(self) -> np.ndarray:
+        """Edges of the solid box with the body's mass and principal second moments about its CoM."""
         J = self.integrals.shifted(self.com)
-        second = np.linalg.eigvalsh(J.I)
-        return float(np.sqrt(12 * np.clip(second, 0, None).max() / self.mass))
+        return np.sqrt(12 * np.clip(np.linalg.eigvalsh(J.I), 0, None) / self.mass)
 
     # --- transformations ----------------------------------------------------
     def in_principal_frame(self) -> tuple["FlexibleBody", np.ndarray, np.ndarray]:

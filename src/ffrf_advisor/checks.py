@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .body import FlexibleBody
+from .units import LENGTH, MASS
 
 TOLERANCES = {
     "mass": 0.0,                 # mass must exceed this
@@ -94,6 +95,34 @@ def run_checks(body: FlexibleBody, tolerances: dict[str, float] | None = None) -
     tol = {**source_tolerances(digits), **(tolerances or {})}
     precision = "double" if digits is None else f"{digits} significant digits"
     return [_check(name, value, tol, precision) for name, value in check_values(body).items()]
+
+
+PLAUSIBLE_DENSITY = (1.0, 1e5)  # kg/m^3: below air; 4x osmium (22,590), which no mass distribution explains
+DENSITY_UNITS = {"kg/m^3": 1.0, "g/cm^3": 1e3, "kg/cm^3": 1e6, "kg/mm^3": 1e9, "t/mm^3": 1e12}  # in kg/m^3
+
+
+def apparent_density(body: FlexibleBody) -> float:
+    """Mass over the volume of the solid box with the body's mass and second moments [kg/m^3]: the material's
+    density for a solid box, less for thin walls (the carbody: 31), rarely above it (mass near the CoM)."""
+    u = body.units
+    volume = float(np.prod(body.equivalent_box())) * float(LENGTH[u.length]) ** 3
+    return body.mass * float(MASS[u.mass]) / volume if volume > 0 else float("inf")
+
+
+def density_warnings(body: FlexibleBody) -> tuple[str, ...]:
+    """A warning when the apparent density is outside PLAUSIBLE_DENSITY, naming the unit mix-up that would
+    give it (a density in kg/m^3 read as t/mm^3 is 10^12 too heavy)."""
+    rho = apparent_density(body)
+    if PLAUSIBLE_DENSITY[0] <= rho <= PLAUSIBLE_DENSITY[1]:
+        return ()
+    u = body.units
+    read_as = f"{u.mass}/{u.length}^3"
+    native = float(MASS[u.mass] / LENGTH[u.length] ** 3)
+    likely = [name for name, size in DENSITY_UNITS.items() if 300 <= rho * size / native <= 3e4 and size != native]
+    guess = f"; a density in {likely[0]} read as {read_as}?" if likely else ""
+    return (f"implausible density: mass {body.mass:.4g} {u.mass} in its equivalent solid box of "
+            f"{' x '.join(f'{e:.3g}' for e in body.equivalent_box())} {u.length} is {rho:.3g} kg/m^3, outside "
+            f"{PLAUSIBLE_DENSITY[0]:g}-{PLAUSIBLE_DENSITY[1]:g} kg/m^3 (units {u}){guess}",)
 
 
 def check_warnings(checks: list[Check]) -> tuple[str, ...]:

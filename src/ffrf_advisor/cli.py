@@ -6,15 +6,18 @@ Each command imports what it uses when it runs: `--version` and `--help` import 
 they cost about 8 ms more.
 """
 import functools
+import inspect
 import math
 import sys
 import time
+import warnings
+from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Optional
+from typing import TYPE_CHECKING, Annotated, Optional, get_args, get_origin
 
 import typer
 from typer._click.exceptions import NoArgsIsHelpError, UsageError  # typer vendors click (pinned)
-from typer.core import TyperGroup
+from typer.core import TyperArgument, TyperGroup
 
 from . import __version__
 from .errors import FFRFError
@@ -23,21 +26,23 @@ from .names import INTEGRATORS, MAX_MEMORY_ENV, SAMPLES, SCENES, SCHEMA_COMMANDS
 if TYPE_CHECKING:
     from .analysis import Options
 
-_consoles: dict = {}  # this run's rich consoles, by stderr (bool)
+_consoles: dict = {}  # this run's rich consoles: "out" (stdout), "err" (errors, warnings), "info" (progress, notes)
+_run = {"quiet": False}  # this run's --quiet
 
 
-def _console(stderr: bool):
-    """This run's rich console on stdout or stderr, made at first use with the width the terminal (or COLUMNS)
-    has now, not as at an earlier run in this process (tests, notebooks)."""
-    if stderr not in _consoles:
+def _console(kind: str):
+    """This run's rich console, made at first use with the width the terminal (or COLUMNS) has now, not as at
+    an earlier run in this process (tests, notebooks); "info" is stderr, silent under --quiet."""
+    if kind not in _consoles:
         from rich.console import Console
-        console = Console(stderr=stderr, emoji=False)  # names like zoo:ring:1003 stay text (":ring:" is an emoji)
+        console = Console(stderr=kind != "out", emoji=False,  # names like zoo:ring:1003 stay text (no emoji)
+                          quiet=kind == "info" and _run["quiet"])
         console.width = console.width
-        _consoles[stderr] = console
-    return _consoles[stderr]
+        _consoles[kind] = console
+    return _consoles[kind]
 
 
-out, err = functools.partial(_console, False), functools.partial(_console, True)
+out, err, notes = (functools.partial(_console, kind) for kind in ("out", "err", "info"))
 
 
 def _print_json(data) -> None:
@@ -56,6 +61,7 @@ class OneLineUsage(TyperGroup):
     other bad input; without arguments the help, on stderr, with exit 2."""
 
     def main(self, *args, standalone_mode: bool = True, **kwargs):
+        _plain_metavars(self)
         try:
             code = super().main(*args, standalone_mode=False, **kwargs)
         except NoArgsIsHelpError as e:
@@ -73,8 +79,34 @@ class OneLineUsage(TyperGroup):
             sys.exit(code if isinstance(code, int) else 0)
         return code
 
+    def get_command(self, ctx, name):
+        command = super().get_command(ctx, name)
+        if command is not None:
+            _plain_metavars(command)
+        return command
 
-app = typer.Typer(cls=OneLineUsage, add_completion=False, no_args_is_help=True,
+
+PLAIN_TYPES = {"str": "TEXT", "float": "NUMBER", "int": "INTEGER", "Path": "PATH"}
+
+
+def _plain_metavars(command) -> None:
+    """Help in the words of man pages: ``BODY``, ``--speed TEXT``, ``--jobs INTEGER`` (typer shows ``{body}``,
+    ``<str>``, ``<int range>``)."""
+    for param in command.params:
+        if param.metavar is not None or getattr(param, "is_flag", False):
+            continue
+        if isinstance(param, TyperArgument):
+            param.metavar = param.name.upper()
+            usage = param.metavar + ("..." if param.nargs != 1 else "")
+            param._usage_display_name = lambda usage=usage: usage  # no braces around required arguments
+            param.display_type_rich = lambda ctx: None  # the name says it: BODY, BODIES...
+        else:
+            kind = param.type_descriptor.annotation
+            kind = (get_args(kind) or (kind,))[0] if get_origin(kind) is list else kind
+            param.metavar = PLAIN_TYPES.get(getattr(kind, "__name__", ""), "VALUE")
+
+
+app = typer.Typer(cls=OneLineUsage, no_args_is_help=True, context_settings={"help_option_names": ["-h", "--help"]},
                   rich_markup_mode=None,  # help texts keep [units]
                   help="Which FFRF inertia terms does a flexible body need? Advice with evidence.")
 
@@ -84,12 +116,19 @@ EXIT_BAD_INPUT = 2
 def handles_errors(fn):
     """Report FFRFError (bad input) as one line on stderr with exit code 2, no traceback; any other error
     after reading (numerics a body provokes, a full disk) likewise, named by its type, so exit 1 keeps its
-    one meaning (gate: a body exceeds its level)."""
+    one meaning (gate: a body exceeds its level). Adds --quiet/-q to the command: no progress and no notes
+    on stderr (errors and warnings stay)."""
+    signature = inspect.signature(fn)
+    quiet = inspect.Parameter("quiet", inspect.Parameter.KEYWORD_ONLY, default=False, annotation=Quiet)
+
     @functools.wraps(fn)
-    def wrapper(*args, **kwargs):
+    def wrapper(*args, quiet: bool = False, **kwargs):
         from .io.atomic import one_run
+        _run["quiet"] = quiet
+        _consoles.pop("info", None)
         try:
-            with one_run():  # what the command reads, it never writes over
+            with one_run(), warnings.catch_warnings():  # what the command reads, it never writes over
+                warnings.simplefilter("ignore")  # numpy's overflow warnings of a diverging run: the summary says it
                 return fn(*args, **kwargs)
         except FFRFError as e:
             message = str(e)
@@ -99,7 +138,12 @@ def handles_errors(fn):
             message = f"unexpected {type(e).__name__}: {' '.join(str(e).split())[:300]}"
         err().print(f"error: {message}", markup=False, highlight=False, soft_wrap=True)
         raise typer.Exit(EXIT_BAD_INPUT) from None
+    wrapper.__signature__ = signature.replace(parameters=[*signature.parameters.values(), quiet])
     return wrapper
+
+
+Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress and no notes on stderr (errors and "
+                                                           "warnings stay).")]
 
 
 def _version(value: bool):
@@ -180,6 +224,63 @@ Eigenvalues = Annotated[Optional[str], typer.Option(
     "--eigenvalues", help="meshio meshes: eigenvalues [1/s^2] as a comma list or a file (else field data).")]
 Density = Annotated[Optional[float], typer.Option(
     "--density", help="meshio meshes: density [t/mm^3] (else field data).")]
+
+# The one set of reading and analysis options, the same on every command that analyses a body.
+ANALYSIS_OPTIONS = {"speed": Speed, "speed_range": SpeedRange, "f_sys": FSys, "connection": Connection,
+                    "widening": Widening, "sigma_allow": SigmaAllow, "q_cap": QCap,
+                    "deflection_cap": DeflCap, "q_max": QMax, "n_ratio": NRatio, "threshold": Threshold,
+                    "config": Config, "spin_axis": SpinAxis, "tolerance": Tolerance, "rules": Rules,
+                    "excitation": Excitation, "eigenvalues": Eigenvalues, "density": Density}
+
+
+@dataclass(frozen=True)
+class AnalysisArgs:
+    """The analysis options (ANALYSIS_OPTIONS) as the command line gave them; None: config file or default."""
+    speed: Optional[str] = None
+    speed_range: Optional[str] = None
+    f_sys: Optional[float] = None
+    connection: Optional[str] = None
+    widening: Optional[bool] = None
+    sigma_allow: Optional[float] = None
+    q_cap: Optional[float] = None
+    deflection_cap: Optional[float] = None
+    q_max: Optional[str] = None
+    n_ratio: Optional[int] = None
+    threshold: Optional[list] = None
+    config: Optional[Path] = None
+    spin_axis: Optional[str] = None
+    tolerance: Optional[float] = None
+    rules: Optional[str] = None
+    excitation: Optional[str] = None
+    eigenvalues: Optional[str] = None
+    density: Optional[float] = None
+
+    def options(self) -> "Options":
+        """analysis.Options from defaults < config file < command line."""
+        return build_options(self)
+
+    def read(self, path: Path, **how):
+        """The body at ``path``, with the meshio reader's --eigenvalues and --density."""
+        return _read(path, self.eigenvalues, self.density, **how)
+
+    def mesh_options(self) -> dict:
+        return _mesh_options(self.eigenvalues, self.density)
+
+
+def analysis_options(fn):
+    """Give the command the one set of reading and analysis options: typer sees ANALYSIS_OPTIONS as
+    keyword options after the command's own, the command receives them as ``args: AnalysisArgs``."""
+    signature = inspect.signature(fn)
+    own = [p for p in signature.parameters.values() if p.name != "args"]
+    added = [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=None, annotation=kind)
+             for name, kind in ANALYSIS_OPTIONS.items()]
+
+    @functools.wraps(fn)
+    def wrapper(*positional, **named):
+        given = AnalysisArgs(**{name: named.pop(name) for name in ANALYSIS_OPTIONS})
+        return fn(*positional, args=given, **named)
+    wrapper.__signature__ = signature.replace(parameters=own + added)
+    return wrapper
 
 
 @app.command()
@@ -288,77 +389,62 @@ def _is_number(text) -> bool:
     return True
 
 
-def build_options(speed=None, f_sys=None, connection=None, widening=None, sigma_allow=None, q_cap=None,
-                  deflection_cap=None, q_max=None, n_ratio=None, threshold=None, config=None,
-                  spin_axis=None, tolerance=None, rules=None, speed_range=None, excitation=None) -> "Options":
+def build_options(given: AnalysisArgs) -> "Options":
     """Options from defaults < config file < command line."""
     from .amplitudes import AmplitudeOptions
     from .analysis import Options, check_options
     from .guidelines import Situation, load_config, parse_speed
-    cfg = load_config(config)
-    pick = lambda cli, key, default=None: cli if cli is not None else cfg.get(key, default)  # noqa: E731
-    speed = pick(speed, "speed")
-    amp = AmplitudeOptions(sigma_allow=pick(sigma_allow, "sigma_allow", AmplitudeOptions.sigma_allow),
-                           q_cap=pick(q_cap, "q_cap", AmplitudeOptions.q_cap),
-                           deflection_cap=pick(deflection_cap, "deflection_cap"), q_max=_numbers("--q-max", q_max))
-    w_range = _speed_range(pick(speed_range, "speed_range"))
+    cfg, config_file = load_config(given.config)
+    pick = lambda key, default=None: (getattr(given, key) if getattr(given, key) is not None  # noqa: E731
+                                      else cfg.get(key, default))
+    speed = pick("speed")
+    amp = AmplitudeOptions(sigma_allow=pick("sigma_allow", AmplitudeOptions.sigma_allow),
+                           q_cap=pick("q_cap", AmplitudeOptions.q_cap),
+                           deflection_cap=pick("deflection_cap"), q_max=_numbers("--q-max", given.q_max))
+    w_range = _speed_range(pick("speed_range"))
     if w_range is not None and speed is not None:
         raise FFRFError("--speed and --speed-range: expected one of them, got both")
     w_op = w_range[1] if w_range is not None else (None if speed is None else parse_speed(speed))
     if w_op and w_range is None and _is_number(speed):  # 0 is 0 in every unit
-        err().print(f"note: speed {speed} has no unit: read as {w_op:g} rad/s (write e.g. 3000rpm or 50Hz)",
+        notes().print(f"note: speed {speed} has no unit: read as {w_op:g} rad/s (write e.g. 3000rpm or 50Hz)",
                     highlight=False)
-    vector, principal = _spin_axis(pick(spin_axis, "spin_axis"))
-    situation = Situation(w_op=w_op, f_sys=pick(f_sys, "f_sys"),
-                          connection=pick(connection, "connection", "free"), widening=widening,
-                          thresholds=_thresholds(threshold, cfg.get("thresholds", {})),
-                          spin_axis=vector, principal_axis=principal,
-                          tolerance=pick(tolerance, "tolerance", Situation.tolerance),
-                          rules=pick(rules, "rules", Situation.rules), speed_range=w_range,
-                          excitation=pick(excitation, "excitation", Situation.excitation))
-    options = Options(amp, situation, pick(n_ratio, "n_ratio"))
+    vector, principal = _spin_axis(pick("spin_axis"))
+    situation = Situation(w_op=w_op, f_sys=pick("f_sys"), connection=pick("connection", "free"),
+                          widening=given.widening, thresholds=_thresholds(given.threshold, cfg.get("thresholds", {})),
+                          spin_axis=vector, principal_axis=principal, tolerance=pick("tolerance", Situation.tolerance),
+                          rules=pick("rules", Situation.rules), speed_range=w_range,
+                          excitation=pick("excitation", Situation.excitation), config=config_file)
+    options = Options(amp, situation, pick("n_ratio"))
     check_options(options)
     return options
 
 
 @app.command()
 @handles_errors
-def analyze(body: Path = typer.Argument(..., help="Body file."), speed: Speed = None, f_sys: FSys = None,
-            connection: Connection = None, widening: Widening = None, sigma_allow: SigmaAllow = None,
-            q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None, n_ratio: NRatio = None,
-            threshold: Threshold = None, config: Config = None, as_json: AsJson = False,
-            eigenvalues: Eigenvalues = None, density: Density = None, spin_axis: SpinAxis = None,
-            tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
-            speed_range: SpeedRange = None):
+@analysis_options
+def analyze(body: Path = typer.Argument(..., help="Body file."), as_json: AsJson = False, *,
+            args: AnalysisArgs):
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
     from .report.console import analysis_summary
     from .report.json_out import analysis_json
-    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
-                            excitation)
-    result = run_analysis(_read(body, eigenvalues, density, load_fe="summary"), options)
+    result = run_analysis(args.read(body, load_fe="summary"), args.options())
     if as_json:
         _print_json(analysis_json(result, str(body)))
     else:
-        analysis_summary(out(), result)
+        analysis_summary(out(), result, err())
 
 
 @app.command()
 @handles_errors
+@analysis_options
 def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
          max_level: str = typer.Option(..., "--max-level", help="Highest level the model implements: I-IV."),
-         speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
-         sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
-         n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
-         tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
-         speed_range: SpeedRange = None,
-         eigenvalues: Eigenvalues = None, density: Density = None,
          junit: Optional[Path] = typer.Option(None, "--junit", help="Write JUnit XML here."),
          force: bool = typer.Option(False, "--force", help="Let --junit replace a file that is not a JUnit report."),
          jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Bodies analysed in parallel."),
-         as_json: GateJson = False):
+         as_json: GateJson = False, *, args: AnalysisArgs):
     """CI gate: exit 0 when every body's level is within --max-level, 1 when one is not, 2 on bad input."""
-    from .gate import check_junit_target, run_gate, write_junit
+    from .gate import check_junit_target, gate_summary, run_gate, write_junit
     from .guidelines import LEVELS, operating_point
     from .io.atomic import atomic_path
     from .report.console import shown
@@ -368,13 +454,11 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
         raise FFRFError(f"--max-level {max_level!r}: expected one of {', '.join(LEVELS)}")
     if junit is not None:
         check_junit_target(junit, bodies, force)
-    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
-                            excitation)
+    options = args.options()
     if options.situation.w_op is None:
         raise FFRFError("gate: --speed: expected the operating speed (0 for a body at rest), --speed-range or "
                         "speed in the config; without one only the rules that hold at rest would be evaluated")
-    results = run_gate([str(b) for b in bodies], options, max_level, jobs, err(), _mesh_options(eigenvalues, density))
+    results = run_gate([str(b) for b in bodies], options, max_level, jobs, notes(), args.mesh_options())
     if junit is not None:
         with atomic_path(junit, overwrite=True) as tmp:
             write_junit(results, max_level, tmp)
@@ -388,8 +472,11 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
             if r["error"] and not text.startswith(r["file"]):
                 text = f"{r['file']}: {text}"  # errors that name no file get it once
             out().print(f"{status:8s} {shown(text, 2000)}", highlight=False)
+            if r["analysis"] is not None:
+                out().print(f"{'':8s} decided by: {r['analysis']['decided_by']}", highlight=False)
             for w in r["warnings"]:
-                out().print(f"{'':8s} warning: {shown(w, 2000)}", highlight=False)
+                err().print(f"{shown(r['file'])}: warning: {shown(w, 2000)}", highlight=False)
+        out().print(gate_summary(results, max_level), highlight=False)
     if any(r["error"] for r in results):
         raise typer.Exit(EXIT_BAD_INPUT)
     if not all(r["within"] for r in results):
@@ -398,20 +485,14 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
 
 @app.command()
 @handles_errors
-def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed: Speed = None,
-            f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
-            sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
-            n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
-            tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
-            speed_range: SpeedRange = None,
-            eigenvalues: Eigenvalues = None, density: Density = None, as_json: CompareJson = False):
+@analysis_options
+def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), as_json: CompareJson = False, *,
+            args: AnalysisArgs):
     """Paper-style comparison of bodies: frequencies, stress, q_max, inertia, coupling and norm ratios."""
     from .report.compare import comparison, comparison_table
     from .report.console import shown
-    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
-                            excitation)
-    analyses = [run_analysis(_read(b, eigenvalues, density, load_fe="summary"), options) for b in bodies]
+    options = args.options()
+    analyses = [run_analysis(args.read(b, load_fe="summary"), options) for b in bodies]
     data = comparison(analyses, [str(b) for b in bodies])
     if as_json:
         _print_json(data)
@@ -419,11 +500,12 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), speed:
         out().print(comparison_table(data))
         for body in data["bodies"]:
             for w in body["warnings"]:
-                out().print(f"{shown(body['name'])}: warning: {shown(w, 2000)}", highlight=False)
+                err().print(f"{shown(body['name'])}: warning: {shown(w, 2000)}", highlight=False)
 
 
 @app.command()
 @handles_errors
+@analysis_options
 def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several give the comparison first."),
            output: Path = typer.Option(..., "--output", "-o", help="Report file: .html (self-contained) or .pdf."),
            verify: bool = typer.Option(False, "--verify", help="Verify each advice by simulation (about a "
@@ -431,13 +513,7 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
            verification: Optional[list[Path]] = typer.Option(
                None, "--verification", help="Include a verification already run: the JSON of `verify --json -o "
                                             "DIR` (its figures are read from DIR), one per body in order."),
-           force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT."),
-           speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
-           sigma_allow: SigmaAllow = None, q_cap: QCap = None, deflection_cap: DeflCap = None, q_max: QMax = None,
-           n_ratio: NRatio = None, threshold: Threshold = None, config: Config = None, spin_axis: SpinAxis = None,
-           tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
-           speed_range: SpeedRange = None,
-           eigenvalues: Eigenvalues = None, density: Density = None):
+           force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT."), *, args: AnalysisArgs):
     """HTML or PDF report: verdict, evidence, the paper's figures and tables, pictures, Campbell, verification."""
     import tempfile
     from .report import document
@@ -445,10 +521,8 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
     check_report_target(output, bodies, force)
     if verification and len(verification) != len(bodies):
         raise FFRFError(f"--verification: expected one file per body ({len(bodies)}), got {len(verification)}")
-    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            n_ratio, threshold, config, spin_axis, tolerance, rules, speed_range,
-                            excitation)
-    analyses = [run_analysis(_read(b, eigenvalues, density), options) for b in bodies]
+    options = args.options()
+    analyses = [run_analysis(args.read(b), options) for b in bodies]
     with tempfile.TemporaryDirectory(prefix="ffrf-report-") as scratch:  # figures of --verify, until written
         studies = [_verification(a, b, Path(scratch) / str(i) if verify else None,
                                  verification[i] if verification else None)
@@ -456,7 +530,7 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
         doc = (document.single(analyses[0], str(bodies[0]), studies[0]) if len(bodies) == 1
                else document.collection(analyses, [str(b) for b in bodies], studies))
         write(doc, output, force)
-    err().print(f"wrote {output} ({output.stat().st_size / 1024:.0f} KiB)", markup=False, highlight=False)
+    notes().print(f"wrote {output} ({output.stat().st_size / 1024:.0f} KiB)", markup=False, highlight=False)
 
 
 def _verification(analysis, body: Path, folder: Optional[Path], given: Optional[Path]) -> Optional[dict]:
@@ -469,10 +543,22 @@ def _verification(analysis, body: Path, folder: Optional[Path], given: Optional[
     from .report.verify_json import study_json
     from .verify.scenes import SceneOptions
     from .verify.study import run_study
+    from .report.console import step_bar
     folder.mkdir()
-    err().print(f"verifying {body} by simulation ...", markup=False, highlight=False)
-    study = run_study(analysis, list(SCENES), 0.01, "dop853", None, 1e-8, 3, folder, SceneOptions(), "response")
+    notes().print(f"verifying {body} by simulation ...", markup=False, highlight=False)
+    with step_bar(notes()) as progress:
+        study = run_study(analysis, list(SCENES), analysis.options.situation.tolerance, "dop853", None, 1e-8, 3,
+                          folder, SceneOptions(), "response", progress=progress)
     return study_json(study, str(body))
+
+
+def _writable(target: Path, name: str | None = None):
+    """The format of ``target`` (by ``name`` or suffix), refused when it can only be read."""
+    from .io import format_of
+    fmt = format_of(target, name)
+    if fmt.write is None:
+        raise FFRFError(f"{target}: format {fmt.name} can be read but not written")
+    return fmt
 
 
 @app.command()
@@ -482,14 +568,14 @@ def sample(name: str = typer.Argument(..., help=f"One of: {', '.join(SAMPLES)}."
            refine: int = typer.Option(1, "--refine", help="Element size divided by this (mesh convergence)."),
            force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT.")):
     """Build a sample body from its recipe (docs/samples.md): FE mesh, free-free modes, stress."""
-    from .io import format_of, write_body
+    from .io import write_body
     from .io.atomic import check_target
     from .report.console import shown
     from .samples import sample as make_sample
     check_target(output, force)  # a bad target or suffix fails before the minutes of FE work
-    format_of(output)
+    _writable(output)
     start = time.perf_counter()
-    body = make_sample(name, refine, report=lambda step: err().print(
+    body = make_sample(name, refine, report=lambda step: notes().print(
         f"{name}: {step} ({time.perf_counter() - start:.0f} s so far)", highlight=False))
     write_body(body, output, overwrite=force)
     out().print(f"wrote {shown(output)}: {shown(body.name)}, {body.nf} modes, f1 = {body.frequencies_hz[0]:.4g} Hz, "
@@ -513,13 +599,11 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
                                                                       "the principal axes (theory 4), as the "
                                                                       "CalculiX and meshio readers do.")):
     """Convert a body between formats (see `ffrf-advisor formats`); refuses to overwrite without --force."""
-    from .io import format_of, write_body
+    from .io import write_body
     from .io.atomic import check_target
     from .report.console import shown
     check_target(target, force)
-    fmt = format_of(target, to_format)
-    if fmt.write is None:
-        raise FFRFError(f"{target}: format {fmt.name} can be read but not written")
+    fmt = _writable(target, to_format)
     body = _read(source, eigenvalues, density, from_format, young=young, poisson=poisson)
     if transform:
         body = body.moved_to_principal_frame()
@@ -575,21 +659,15 @@ def list_formats():
 
 @app.command()
 @handles_errors
+@analysis_options
 def settings(body: Path = typer.Argument(..., help="Body file."),
              solver: str = typer.Option("adams", "--solver", help=f"Solver: {', '.join(SOLVERS)}."),
-             speed: Speed = None, f_sys: FSys = None, connection: Connection = None, widening: Widening = None,
-             threshold: Threshold = None, config: Config = None, as_json: SettingsJson = False,
-             eigenvalues: Eigenvalues = None, density: Density = None, spin_axis: SpinAxis = None,
-             tolerance: Tolerance = None, rules: Rules = None, excitation: Excitation = None,
-             speed_range: SpeedRange = None):
+             as_json: SettingsJson = False, *, args: AnalysisArgs):
     """Solver settings for the advised term set (Adams: coupling option and INVARIANTS= pattern)."""
     from .solver_settings import adams_settings
     if solver not in SOLVERS:
         raise FFRFError(f"--solver {solver!r}: expected one of {', '.join(SOLVERS)}")
-    options = build_options(speed, f_sys, connection, widening, threshold=threshold, config=config,
-                            spin_axis=spin_axis, tolerance=tolerance, rules=rules, speed_range=speed_range,
-                            excitation=excitation)
-    result = run_analysis(_read(body, eigenvalues, density, load_fe="summary"), options)
+    result = run_analysis(args.read(body, load_fe="summary"), args.options())
     data = {"schema_version": 1, "level": result.advice.level, "terms": list(result.advice.terms),
             **adams_settings(result.advice.terms),
             "warnings": list(result.advice.warnings)}
@@ -597,7 +675,7 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
         _print_json(data)
         return
     for w in data["warnings"]:
-        out().print(f"warning: {w}", highlight=False)
+        err().print(f"warning: {w}", highlight=False)
     out().print(f"level {data['level']}: terms {', '.join(data['terms'])}")
     out().print(f"Adams: [bold]{data['formulation']}[/bold]   INVARIANTS={data['invariants']}")
     out().print(f"  {data['statement']}")
@@ -615,6 +693,7 @@ EXIT_DIVERGED = 3
 
 @app.command()
 @handles_errors
+@analysis_options
 def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms = "full",
              omega0: str = typer.Option("0,0,0", "--omega0", help="Initial body angular velocity WX,WY,WZ [rad/s]."),
              q0: Optional[str] = typer.Option(None, "--q0", help="Initial modal coordinates (body units), or 'qmax'."),
@@ -628,10 +707,7 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
              output_step: Optional[float] = typer.Option(None, "--output-step", help="Sampling interval [s]."),
              output: Optional[Path] = typer.Option(None, "--output", "-o", help="Trajectory file (.csv or .h5)."),
              force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT."),
-             as_json: SimulateJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
-             widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
-             threshold: Threshold = None, config: Config = None, eigenvalues: Eigenvalues = None,
-             density: Density = None):
+             as_json: SimulateJson = False, *, args: AnalysisArgs):
     """Simulate the free body with a term set (theory sections 5, 10); exit 3 when the integration fails."""
     import numpy as np
     from .io.atomic import not_an_input
@@ -644,8 +720,8 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     from .terms import parse_terms
     if output is not None:
         check_output(output, force)
-    b = _read(body, eigenvalues, density)
-    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, threshold=threshold, config=config)
+    b = args.read(body)
+    options = args.options()
     if output is not None:
         not_an_input(output)  # before the integration, not after it
     chosen = run_analysis(b, options).advice.terms if terms.strip() == "advised" else parse_terms(terms)
@@ -657,7 +733,7 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     w0, v0 = _numbers("--omega0", omega0), _numbers("--qd0", qd0)
     check_initial_state(b, w0, start, None if v0 is None else np.asarray(v0) * setup.per_second)
     y0 = initial_state(model, np.array(w0) * setup.per_second, () if start is None else start, v0 or ())
-    with progress_bar(err()) as progress:
+    with progress_bar(notes()) as progress:
         run = integrate(model, y0, setup.t_end, integrator, setup.step, rtol, atol, setup.output_step,
                         progress=progress)
     if output is not None:
@@ -673,9 +749,9 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
 
 @app.command("verify")
 @handles_errors
+@analysis_options
 def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    scene: Optional[list[str]] = typer.Option(None, "--scene", help=f"Scene(s): {', '.join(SCENES)} (default all)."),
-                   tolerance: float = typer.Option(0.01, "--tolerance", help="Largest relative error (orientation: rad)."),
                    integrator: str = typer.Option("dop853", "--integrator", help=f"One of {', '.join(INTEGRATORS)}."),
                    step: Optional[float] = typer.Option(None, "--step", help="Step [s] of a fixed-step integrator."),
                    rtol: float = typer.Option(1e-8, "--rtol", help="Relative tolerance of an adaptive integrator."),
@@ -692,28 +768,24 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    fail_on: str = typer.Option("never", "--fail-on", metavar="never|unsafe|conservative",
                                                help="Exit 1 when the verdict is unsafe (or no verdict), or also "
                                                     "when it is conservative."),
-                   as_json: VerifyJson = False, speed: Speed = None, f_sys: FSys = None, connection: Connection = None,
-                   widening: Widening = None, sigma_allow: SigmaAllow = None, q_cap: QCap = None,
-                   threshold: Threshold = None, config: Config = None, rules: Rules = None,
-                   excitation: Excitation = None, spin_axis: SpinAxis = None, deflection_cap: DeflCap = None,
-                   q_max: QMax = None, eigenvalues: Eigenvalues = None, density: Density = None):
+                   as_json: VerifyJson = False, *, args: AnalysisArgs):
     """Verify the advice by simulation: scenes, term sets, errors, cost, stability, Campbell, figures."""
-    from .report.console import verification_report
+    from .report.console import step_bar, verification_report
     from .report.verify_json import study_json
     from .sim.setup import simulation_setup
     from .verify.checks import FAILING, check_verify_options
     from .verify.scenes import SceneOptions
     from .verify.study import run_study
     names = list(scene or SCENES)
+    options = args.options()
+    tolerance = options.situation.tolerance
     check_verify_options(names, tolerance, integrator, step, rtol, repeats, output, criterion, fail_on)
-    options = build_options(speed, f_sys, connection, widening, sigma_allow, q_cap, deflection_cap, q_max,
-                            threshold=threshold, config=config, spin_axis=spin_axis, tolerance=tolerance, rules=rules,
-                            excitation=excitation)
-    b = _read(body, eigenvalues, density)
+    b = args.read(body)
     result = run_analysis(b, options)
     h = None if step is None else simulation_setup(b, 1.0, step, None, integrator).step
-    st = run_study(result, names, tolerance, integrator, h, rtol, repeats, output, SceneOptions(axis=axis),
-                   criterion, quick, jobs)
+    with step_bar(notes()) as progress:
+        st = run_study(result, names, tolerance, integrator, h, rtol, repeats, output, SceneOptions(axis=axis),
+                       criterion, quick, jobs, progress)
     data = study_json(st, str(body))
     if as_json:
         _print_json(data)

@@ -43,7 +43,7 @@ def _gate_record(path: str, options: Options, max_level: str, read_options: dict
 
 def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, console: Console,
              read_options: dict | None = None) -> list[dict]:
-    show = len(paths) >= PROGRESS_FROM
+    show = len(paths) >= PROGRESS_FROM and not console.quiet
     with Progress(console=console, disable=not show, transient=True) as progress:
         task = progress.add_task("analysing bodies", total=len(paths))
         results = []
@@ -52,6 +52,16 @@ def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, cons
                 results.append(record)
                 progress.advance(task)
         return results
+
+
+def gate_summary(results: list[dict], max_level: str) -> str:
+    """One line: how many bodies are within ``max_level``, exceed it, or could not be read."""
+    errors = sum(1 for r in results if r["error"])
+    within = sum(1 for r in results if not r["error"] and r["within"])
+    exceeding = len(results) - errors - within
+    verdict = "FAILED" if errors or exceeding else "passed"
+    return (f"gate {verdict}: {len(results)} bodies, {within} within level {max_level}, {exceeding} above it, "
+            f"{errors} unreadable")
 
 
 def check_junit_target(path: Path, inputs: list[Path], force: bool) -> None:

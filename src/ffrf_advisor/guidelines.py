@@ -62,6 +62,7 @@ class Situation:
     rules: str = "predicted"
     speed_range: tuple[float, float] | None = None
     excitation: str = "vibration"
+    config: str | None = None  # the config file applied, named in the operating point
 
     def axes(self, body: FlexibleBody | None = None) -> list[np.ndarray]:
         """The spin axes evaluated, as body-frame unit vectors: the given one, or the principal axes."""
@@ -125,6 +126,20 @@ class Advice:
     def lagrangian_superset(self) -> tuple[str, ...] | None:
         return lagrangian_superset(self.terms)
 
+    @property
+    def decided_by(self) -> str:
+        """One sentence naming the rule that decided the level, with its value and threshold: with predicted
+        errors the dearest set rejected below the advised one (else the advised set's own margin); with the
+        paper's rules the highest fired rule."""
+        if any(r.name == "advised" for r in self.rules):
+            rejected = [r for r in self.rules if r.fired and r is not BASELINE and r.name != "advised"]
+            return (rejected or [r for r in self.rules if r.name == "advised"])[-1].reason
+        fired = [r for r in self.rules if r.fired and r.value is not None]
+        if not fired:
+            return "no measure above its threshold: level I"
+        r = max(fired, key=lambda r: LEVELS.index(r.rule))
+        return f"rule {r.rule} ({r.name}) {r.value:.3g} > threshold {r.threshold:g}: {r.reason}"
+
 
 BASELINE = Rule("I", "baseline", None, None, True, ("gyro0",), "gyroscopic term with I0 is always kept")
 
@@ -146,17 +161,20 @@ def parse_speed(text: str) -> float:
     return value * {"": 1.0, "rad/s": 1.0, "rpm": 2 * math.pi / 60, "hz": 2 * math.pi}[unit]
 
 
-def load_config(path: Path | None = None, cwd: Path = Path(".")) -> dict:
-    """Options from ``path``, else ``ffrf-advisor.toml`` or ``[tool.ffrf-advisor]`` of pyproject.toml in cwd."""
+def load_config(path: Path | None = None, cwd: Path = Path(".")) -> tuple[dict, str | None]:
+    """Options from ``path``, else ``ffrf-advisor.toml`` or ``[tool.ffrf-advisor]`` of pyproject.toml in cwd;
+    and the file applied (None: none, or a pyproject.toml without the table)."""
     if path is None:
         if (cwd / "ffrf-advisor.toml").exists():  # a FIFO or directory there is refused, not ignored
             path = cwd / "ffrf-advisor.toml"
         elif (cwd / "pyproject.toml").is_file():
-            data = _toml(cwd / "pyproject.toml")
-            return _validated(data.get("tool", {}).get("ffrf-advisor", {}), cwd / "pyproject.toml")
+            table = _toml(cwd / "pyproject.toml").get("tool", {}).get("ffrf-advisor")
+            if table is None:
+                return {}, None
+            return _validated(table, cwd / "pyproject.toml"), f"{cwd / 'pyproject.toml'} [tool.ffrf-advisor]"
         else:
-            return {}
-    return _validated(_toml(path), path)
+            return {}, None
+    return _validated(_toml(path), path), str(path)
 
 
 CONFIG_BYTES = 1 << 20  # a config file is a regular file of at most 1 MiB
@@ -243,7 +261,7 @@ def _basis_warnings(body: FlexibleBody, sit: Situation, w_op) -> list[str]:
     if body.static_centrifugal is None:
         return []
     thr, s = sit.threshold("basis_error"), (1.0 if w_op is None else w_op)
-    at = "per (rad/time unit)^2" if w_op is None else "at w_op"
+    at = f"per (rad/{body.units.time})^2" if w_op is None else "at w_op"
     out = []
     for k, e in enumerate(basis_errors(body)):
         if e > thr:
@@ -253,6 +271,14 @@ def _basis_warnings(body: FlexibleBody, sit: Situation, w_op) -> list[str]:
                        f"error {e:.2f} > {thr:g}); widening stress {at} {exact:.3g} {body.units.stress} exact, "
                        f"{modal} from the modes; fix: ffrf-advisor augment BODY -o OUT --axes {k + 1}")
     return out
+
+
+def _yield_warning(body: FlexibleBody, amp: Amplitudes, sit: Situation, w_op) -> list[str]:
+    """The body yields at w_op: the static centrifugal stress of rule II above sigma_allow itself."""
+    stress = _rule_II(body, amp, replace(sit, widening=None), w_op)
+    if stress.value is None or stress.value <= 1:
+        return []
+    return [f"the body yields at this speed: {stress.reason}, sigma_allow = {amp.sigma_allow:g} {body.units.stress}"]
 
 
 def _principal_indices(sit: Situation) -> list[int]:
@@ -303,7 +329,7 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
         warnings += more
     else:
         level, terms, rules, candidates = _predicted(body, amp, sit, stiff)
-    warnings += _basis_warnings(body, sit, w_op)
+    warnings += _basis_warnings(body, sit, w_op) + _yield_warning(body, amp, sit, w_op)
     if sig.not_evaluable:
         warnings.append(f"decided without {', '.join(sig.not_evaluable)} ({_lacking(body)}); "
                         "the level may be too low for beam-like or rotationally soft bodies")
@@ -317,7 +343,8 @@ def advise(body: FlexibleBody, amp: Amplitudes, sig: Significance, sit: Situatio
 
 
 def operating_point(sit: Situation) -> str:
-    """The operating point in words: speed with unit (or at rest), axes, connection, tolerance, rules."""
+    """The operating point in words: speed with unit (or at rest), axes, connection, f_sys, tolerance, rules,
+    and the config file applied."""
     rules = {"paper": "the paper's rules and thresholds", "thresholds": "the rules of theory 8 with thresholds",
              "predicted": f"predicted errors within {sit.tolerance:g} (margin {MARGIN:g})"}[sit.rules]
     if sit.at_rest:
@@ -332,7 +359,9 @@ def operating_point(sit: Situation) -> str:
             else f"about principal axis {sit.principal_axis}" if sit.principal_axis is not None
             else "about each principal axis (the worst decides)")
     modes = "" if sit.excitation == "vibration" else ", modes driven by the rigid motion only"
-    return f"{speed} {axes}, connection {sit.connection}{modes}, {rules}"
+    f_sys = "" if sit.f_sys is None else f", f_sys {sit.f_sys:.4g} Hz"
+    config = "" if sit.config is None else f"; options from {sit.config}"
+    return f"{speed} {axes}, connection {sit.connection}{f_sys}{modes}, {rules}{config}"
 
 
 def _speeds(sit: Situation) -> list[float]:

@@ -92,6 +92,15 @@ def is_lagrangian(terms) -> bool:
         set(GROUPS[g]) <= terms for g in groups_of(terms))
 
 
+def lagrangian_status(terms) -> str:
+    """The one wording of every output: "Lagrangian" (gyro0 and whole FFRF groups), "Lagrangian + geo_stiff"
+    (the same, with the spin stiffening of theory 9, which lies outside the kinetic energy) or "not
+    Lagrangian" (theory 5: energy and |H| drift)."""
+    if not is_lagrangian([t for t in terms if t != "geo_stiff"]):
+        return "not Lagrangian"
+    return "Lagrangian + geo_stiff" if "geo_stiff" in set(terms) else "Lagrangian"
+
+
 def lagrangian_superset(terms) -> tuple[str, ...] | None:
     """The smallest Lagrangian set containing ``terms``: every group it touches, whole (None with geo_stiff)."""
     if "geo_stiff" in set(terms):

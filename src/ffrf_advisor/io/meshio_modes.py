@@ -93,7 +93,8 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
     provenance = Provenance(
         source=str(path), mass_matrix="consistent",
         method="consistent mass assembled from the mesh; nodal sums (theory section 3)",
-        notes=(f"density {rho:g}; modes mass-normalised (file scale factors "
+        notes=(f"units t-mm-N-s assumed (a meshio file states none): coordinates mm, density {rho:g} t/mm^3, "
+               f"eigenvalues 1/s^2; modes mass-normalised (file scale factors "
                f"{', '.join(f'{1 / s:.4g}' for s in scale[:4])}{' ...' if nf > 4 else ''})",
                f"{mesh.n_cells} x {', '.join(mesh.cells)}, {mesh.n_nodes} nodes"))
     if material is not None:

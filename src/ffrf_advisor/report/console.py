@@ -16,10 +16,10 @@ from rich.table import Table
 from ..adequacy import summary as basis_summary
 from ..body import FlexibleBody
 from ..guidelines import softening_situations
-from ..checks import Check
+from ..checks import Check, density_warnings
 from ..predict import KINDS, MARGIN, level_of
 from ..sim.cost import cost_ratio
-from ..terms import is_lagrangian
+from ..terms import lagrangian_status
 
 
 def _unit(text: str) -> str:
@@ -69,6 +69,8 @@ def body_summary(console: Console, body: FlexibleBody, checks: list[Check]) -> N
         modes.add_row(str(p + 1), f"{body.frequencies_hz[p]:.4f}", f"{body.eigenvalues[p]:.6e}", sigma)
     console.print(modes)
     console.print(checks_table(checks))
+    for w in density_warnings(body):
+        console.print(f"[yellow]warning[/yellow]: {escape(w)}", highlight=False)
     failed = [c for c in checks if not c.passed]
     if failed:
         frame = {"com_offset", "principal_axes"}
@@ -94,26 +96,28 @@ def checks_table(checks: list[Check]) -> Table:
     return table
 
 
-def _not_lagrangian(adv, nf: int) -> str:
+def _lagrangian(adv, nf: int) -> str:
+    """lagrangian_status of the advised set; when not Lagrangian, its smallest Lagrangian superset and cost."""
+    status = lagrangian_status(adv.terms)
+    if status != "not Lagrangian":
+        return f"   ({status})"
     superset = adv.lagrangian_superset
-    ffrf = tuple(t for t in adv.terms if t != "geo_stiff")
-    if "geo_stiff" in adv.terms and is_lagrangian(ffrf):
-        return ("\n(FFRF terms Lagrangian: whole energy groups; geo_stiff, the spin-dependent stiffening of "
-                "theory 9, lies outside the kinetic energy)")
     return ("\n[yellow]not Lagrangian[/yellow] (theory 5: energy and |H| drift); smallest Lagrangian superset: "
             + (f"{', '.join(superset)} (right-hand side x{cost_ratio(superset, adv.terms, nf):.2f})" if superset
                else "none"))
 
 
-def analysis_summary(console: Console, a) -> None:
-    """Level and term set on top, then amplitudes, significance tables and the evidence per rule."""
+def analysis_summary(console: Console, a, warnings: Console | None = None) -> None:
+    """Level and term set on top, then amplitudes, significance tables and the evidence per rule; the warnings
+    on ``warnings`` (the CLI: stderr) when given."""
     b, amp, sig, adv = a.body, a.amplitudes, a.significance, a.advice
     u = b.units
     console.print(f"[bold]{shown(b.name)}[/bold]: level [bold]{adv.level}[/bold]   terms: {', '.join(adv.terms)}"
-                  + ("   (Lagrangian)" if adv.lagrangian else _not_lagrangian(adv, b.nf)))
+                  + _lagrangian(adv, b.nf))
     console.print(f"operating point: {adv.operating_point}", highlight=False)
+    console.print(f"decided by: {adv.decided_by}", highlight=False)
     for w in adv.warnings:
-        console.print(f"[yellow]warning[/yellow]: {w}")
+        (warnings or console).print(f"[yellow]warning[/yellow]: {w}")
     _candidates(console, a)
     t = Table(title=f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "
                     f"sigma_allow {amp.sigma_allow:.4g} {u.stress})")
@@ -212,34 +216,55 @@ def _ratio(r) -> str:
 
 
 @contextmanager
-def progress_bar(console: Console, after_s: float = 1.0):
-    """A callback ``progress(fraction)`` that shows a bar on ``console`` once a run has taken ``after_s``,
-    only on a terminal; yields None elsewhere."""
-    if not console.is_terminal:
+def _live_bar(console: Console, after_s: float):
+    """``update(completed, total, label)`` drawing a transient bar with the time remaining on ``console`` once a
+    run has taken ``after_s``; None off a terminal and under --quiet (a quiet console)."""
+    if not console.is_terminal or console.quiet:
         yield None
         return
     start, bar, task = time.perf_counter(), None, None
 
-    def progress(fraction: float) -> None:
+    def update(completed: float, total: float, label: str) -> None:
         nonlocal bar, task
         if bar is None and time.perf_counter() - start > after_s:
-            bar = Progress(TextColumn("simulating"), BarColumn(), TaskProgressColumn(), TimeRemainingColumn(),
-                           console=console, transient=True)
+            bar = Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
+                           TimeRemainingColumn(), console=console, transient=True)
             bar.start()
-            task = bar.add_task("", total=1.0)
+            task = bar.add_task(label, total=total)
         if bar is not None:
-            bar.update(task, completed=fraction)
+            bar.update(task, completed=completed, total=total, description=label)
 
     try:
-        yield progress
+        yield update
     finally:
         if bar is not None:
             bar.stop()
 
 
+@contextmanager
+def progress_bar(console: Console, after_s: float = 1.0):
+    """A callback ``progress(fraction)`` of a simulation (``_live_bar``), or None."""
+    with _live_bar(console, after_s) as update:
+        yield None if update is None else (lambda fraction: update(fraction, 1.0, "simulating"))
+
+
+@contextmanager
+def step_bar(console: Console, after_s: float = 1.0):
+    """A callback ``step(label, total)`` counting the finished steps of a verification (``_live_bar``; the label
+    names the step just finished), or None."""
+    with _live_bar(console, after_s) as update:
+        done = 0
+
+        def step(label: str, total: int) -> None:
+            nonlocal done
+            done += 1
+            update(done, total, label)
+        yield None if update is None else step
+
+
 def simulation_report(console: Console, s: dict, output) -> None:
     """The summary of one simulation run (sim.output.summary) in a few lines."""
-    lag = "Lagrangian" if s["lagrangian"] else "not Lagrangian"
+    lag = lagrangian_status(s["terms"])
     console.print(f"terms: {', '.join(s['terms'])} ({lag})", highlight=False)
     step = "" if s["step"] is None else f", step {s['step']:.3g} {s['units'].split('-')[-1]}"
     console.print(f"{s['integrator']}{step}: {s['steps']} steps, {s['rhs_evaluations']} right-hand sides, "
@@ -272,14 +297,14 @@ def _scene_verdict(v: dict) -> str:
     return f"[{colour}]{v['verdict']}[/{colour}]{why}"
 
 
-def _studies_report(console: Console, s: dict, campbell: dict) -> None:
-    """The stability numbers and the Campbell errors of a verification."""
-    console.print(f"RK4 step limit at rest: {s['rk4_limit_rest']['measured']:.4g} measured, "
-                  f"{s['rk4_limit_rest']['predicted']:.4g} = 2 sqrt 2 / Omega_max", highlight=False)
+def _studies_report(console: Console, s: dict, campbell: dict, t: str) -> None:
+    """The stability numbers and the Campbell errors of a verification; ``t`` the body's time unit."""
+    console.print(f"RK4 step limit at rest: {s['rk4_limit_rest']['measured']:.4g} {t} measured, "
+                  f"{s['rk4_limit_rest']['predicted']:.4g} {t} = 2 sqrt 2 / Omega_max", highlight=False)
     onset = s["divergence_onset"]
     if onset:
-        console.print(f"softening divergence about axis {onset['axis']}: at {onset['measured']:.4g} rad/time "
-                      f"by simulation, s_crit {onset['s_crit']:.4g}; without cf2 "
+        console.print(f"softening divergence about axis {onset['axis']}: at {onset['measured']:.4g} rad/{t} "
+                      f"by simulation, s_crit {onset['s_crit']:.4g} rad/{t}; without cf2 "
                       + ("bounded" if onset["bounded_without_cf2"] else "NOT bounded")
                       + ("" if onset.get("bounded_with_geo_stiff") is None else
                          "; with geo_stiff " + ("bounded" if onset["bounded_with_geo_stiff"] else "NOT bounded")),
@@ -314,6 +339,6 @@ def verification_report(console: Console, d: dict) -> None:
         console.print("quick: no work-precision, stability or Campbell studies (run without --quick for them)",
                       highlight=False)
     else:
-        _studies_report(console, d["stability"], d["campbell"])
+        _studies_report(console, d["stability"], d["campbell"], d["body"]["units"].split("-")[-1])
     if d["figures"]:
         console.print(f"figures: {len(d['figures'])} files in {Path(d['figures'][0]).parent}", highlight=False)

@@ -21,6 +21,7 @@ import numpy as np
 from .. import __version__
 from ..analysis import Analysis
 from ..predict import KINDS
+from ..terms import lagrangian_status
 from ..solver_settings import adams_settings
 from . import paper_figures as pf
 from .json_out import analysis_json
@@ -99,8 +100,8 @@ def verdict(a: Analysis, d: dict) -> Section:
     the analysis JSON (report.json_out)."""
     sig = d["significance"]
     fields = [("level", d["level"]), ("terms", ", ".join(d["terms"])), ("operating point", d["operating_point"]),
-              ("Lagrangian", "yes" if d["lagrangian"] else "no")]
-    if not d["lagrangian"]:
+              ("decided by", d["decided_by"]), ("Lagrangian", lagrangian_status(d["terms"]))]
+    if lagrangian_status(d["terms"]) == "not Lagrangian":
         sup = d["lagrangian_superset"]
         fields.append(("consistent alternative", "none (geo_stiff lies outside the kinetic energy)" if sup is None
                        else f"{', '.join(sup)} (cost x{d['lagrangian_superset_cost']:.3g})"))

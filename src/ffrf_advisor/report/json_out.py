@@ -8,7 +8,7 @@ import numpy as np
 from .. import __version__
 from ..adequacy import summary as basis_summary
 from ..analysis import Analysis
-from ..checks import check_warnings
+from ..checks import check_warnings, density_warnings
 from ..guidelines import THRESHOLDS, softening_situations
 from ..predict import level_of
 from ..significance import Ratio
@@ -56,7 +56,7 @@ def checks_json(checks) -> list[dict]:
 def info_json(b, checks, source: str) -> dict:
     """The documented JSON of ``info --json`` (src/ffrf_advisor/schemas/info.json)."""
     return {"schema_version": 1, "body": body_json(b, source), "checks": checks_json(checks),
-            "warnings": check_warnings(list(checks))}
+            "warnings": check_warnings(list(checks)) + density_warnings(b)}
 
 
 def analysis_json(a: Analysis, source: str) -> dict:
@@ -71,9 +71,10 @@ def analysis_json(a: Analysis, source: str) -> dict:
             "spin_axis": None if sit.spin_axis is None else list(sit.spin_axis),
             "principal_axis": sit.principal_axis, "tolerance": sit.tolerance, "rules": sit.rules,
             "speed_range_rad_s": None if sit.speed_range is None else list(sit.speed_range),
-            "at_rest": sit.at_rest, "excitation": sit.excitation,
+            "at_rest": sit.at_rest, "excitation": sit.excitation, "config": sit.config,
         },
         "operating_point": adv.operating_point,
+        "decided_by": adv.decided_by,
         "candidates": [{"label": c.label, "terms": list(c.terms), "level": level_of(c.terms), "cost": c.cost,
                         "errors": {k: json_number(v) for k, v in c.errors.items()},
                         "adequate": c.meets(sit.tolerance)} for c in adv.candidates],

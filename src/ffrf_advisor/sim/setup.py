@@ -28,7 +28,7 @@ def _positive(name: str, value: float | None, required: bool = False) -> None:
     if value is None and not required:
         return
     if value is None or not math.isfinite(value) or value <= 0:
-        raise FFRFError(f"{name}: expected a positive number of seconds, got {'none' if value is None else value}")
+        raise FFRFError(f"{name}: expected a positive number of seconds, got {'nothing' if value is None else value}")
 
 
 MAX_PERIODS = 1e7  # work budget of one simulation: periods of its highest mode (steps follow from them)
@@ -67,7 +67,9 @@ def simulation_setup(body: FlexibleBody, t_end: float, step: float | None, outpu
     if integrator not in INTEGRATORS:
         raise FFRFError(f"--integrator {integrator!r}: expected one of {', '.join(INTEGRATORS)}")
     _positive("--t-end", t_end, required=True)
-    _positive("--step", step, required=integrator in FIXED)
+    if step is None and integrator in FIXED:
+        raise FFRFError(f"--integrator {integrator}: a fixed-step method; expected --step in seconds, e.g. 1e-5")
+    _positive("--step", step)
     _positive("--output-step", output_step)
     seconds = float(TIME[body.units.time])  # seconds per body time unit
     if step is not None and t_end / step > 1e9:

@@ -216,12 +216,13 @@ def run_set(a: Analysis, ts: TermSet, scene: Scene, ref: Reference, integrator: 
 
 
 def verify(a: Analysis, scenes, tolerance: float = 0.01, integrator: str = "dop853", step: float | None = None,
-           rtol: float = 1e-8, repeats: int = 3, criterion: str = "response", jobs: int = 1) -> Verification:
+           rtol: float = 1e-8, repeats: int = 3, criterion: str = "response", jobs: int = 1,
+           progress=None) -> Verification:
     """Every term set through every scene against the reference, and the verdict on the advice by ``criterion``;
     the references, then the sets' runs, on ``jobs`` local processes (each run's wall time is the minimum over
-    its ``repeats``, taken serially in its worker)."""
+    its ``repeats``, taken serially in its worker); ``progress(label, total)`` is told of each finished run."""
     scenes, sets = tuple(scenes), term_sets(a)
-    refs, rows = _runs(_Work(a, scenes, sets, integrator, step, rtol, repeats), jobs)
+    refs, rows = _runs(_Work(a, scenes, sets, integrator, step, rtol, repeats), jobs, progress or _silent)
     results = []
     for sc in scenes:
         scene_rows = [r for r in rows if r.scene == sc.label]
@@ -250,18 +251,34 @@ class _Work:
 _work: _Work | None = None
 
 
-def _runs(work: _Work, jobs: int) -> tuple[dict, list[SetResult]]:
-    """The scenes' references, then every (scene, set) run, in order."""
+def _runs(work: _Work, jobs: int, progress) -> tuple[dict, list[SetResult]]:
+    """The scenes' references, then every (scene, set) run, in order, each finished one told to ``progress``."""
     global _work
     _work = work
+    n = len(work.scenes) * (1 + len(work.sets))
+    pairs = [(i, j) for i in range(len(work.scenes)) for j in range(len(work.sets))]
     try:
         with mapper(jobs) as map_:
-            refs = list(map_(_reference_run, range(len(work.scenes))))
-            pairs = [(i, j) for i in range(len(work.scenes)) for j in range(len(work.sets))]
-            rows = list(map_(_set_run, pairs, [refs[i] for i, _ in pairs]))
+            refs = _told(map_(_reference_run, range(len(work.scenes))), progress, n,
+                         lambda i: f"reference {work.scenes[i].label}")
+            rows = _told(map_(_set_run, pairs, [refs[i] for i, _ in pairs]), progress, n,
+                         lambda k: f"{work.scenes[pairs[k][0]].label}: {work.sets[pairs[k][1]].label}")
     finally:
         _work = None
     return {sc.label: ref for sc, ref in zip(work.scenes, refs)}, rows
+
+
+def _told(results, progress, total: int, label) -> list:
+    """The results, ``progress(label(k), total)`` after the k-th arrives."""
+    out = []
+    for k, r in enumerate(results):
+        out.append(r)
+        progress(label(k), total)
+    return out
+
+
+def _silent(label: str, total: int) -> None:
+    """No progress shown."""
 
 
 def _reference_run(i: int) -> Reference:

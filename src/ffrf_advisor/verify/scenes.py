@@ -148,10 +148,10 @@ def spin_up(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
     s = opts.speed * TIME[a.body.units.time] if opts.speed is not None else default_speed(a)
     ramp = _seconds(a, opts.ramp) or 10 * _first_period(a)
     T = _seconds(a, opts.duration) or ramp + 5 * _first_period(a)
-    nf = a.body.nf
+    nf, t = a.body.nf, a.body.units.time
     loads = Loads.of(LoadProgram(spin=s * np.eye(3)[k], ramp=ramp))
     return Scene("spin-up", k, T, np.zeros(3), np.zeros(nf), np.zeros(nf), loads, speed=s,
-                 text=f"prescribed spin-up to {s:.4g} rad/time in {ramp:.4g} time units")
+                 text=f"prescribed spin-up to {s:.4g} rad/{t} in {ramp:.4g} {t}")
 
 
 def torque_pulse(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
@@ -161,10 +161,10 @@ def torque_pulse(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:
     tp = _seconds(a, opts.pulse) or 0.5 * _first_period(a)
     tau0 = 2 * a.body.I0[k, k] * s / tp  # integral of tau0 sin^2(pi t / tp) over tp = tau0 tp / 2
     T = _seconds(a, opts.duration) or tp + 5 * _first_period(a)
-    nf = a.body.nf
+    nf, t = a.body.nf, a.body.units.time
     loads = Loads.of(LoadProgram(tau0=tau0 * np.eye(3)[k], pulse=tp))
     return Scene("torque-pulse", k, T, np.zeros(3), np.zeros(nf), np.zeros(nf), loads, speed=s,
-                 text=f"torque pulse of {tp:.3g} time units to {s:.4g} rad/time")
+                 text=f"torque pulse of {tp:.3g} {t} to {s:.4g} rad/{t}")
 
 
 def minor_axis(a: Analysis, opts: SceneOptions = SceneOptions()) -> Scene:

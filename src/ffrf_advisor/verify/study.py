@@ -87,22 +87,29 @@ def stability_studies(a: Analysis, scene: Scene) -> dict:
 def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str = "dop853",
               step: float | None = None, rtol: float = 1e-8, repeats: int = 3, directory: Path | None = None,
               scene_options: SceneOptions = SceneOptions(), criterion: str = "response", quick: bool = False,
-              jobs: int = 1) -> Study:
+              jobs: int = 1, progress=None) -> Study:
     """Everything ``verify`` reports; figures go to ``directory`` when given. The scenes and the verdict cover every
     axis of ``scenes.scene_axes`` (their runs on ``jobs`` local processes); work-precision, stability and drift
     use the first scene, Campbell all axes. ``quick``: the scenes and the verdict only (and their trajectory
-    figures)."""
+    figures). ``progress(label, total)`` is told of each finished run, study and the figures."""
     scenes = make_scenes(scene_names, a, scene_options)
     a = for_scenes(a, scenes)
-    ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion, jobs)
+    total = len(scenes) * (1 + len(term_sets(a))) + (0 if quick else 3) + (directory is not None)
+    told = (lambda label, _: progress(label, total)) if progress else (lambda label, _: None)
+    ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion, jobs, told)
     first = scenes[0]
     points = stab = camp = None
     if not quick:
         points = work_precision(a, first, ver.references[first.label],
                                 tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)
+        told("work-precision", total)
         stab = stability_studies(a, first)
+        told("stability studies", total)
         camp = campbell_data(a, default_speed(a))
+        told("Campbell diagram", total)
     figures = () if directory is None else write_figures(a, ver, points, camp, stab, first, Path(directory))
+    if directory is not None:
+        told("figures", total)
     return Study(a, ver, points, stab, camp, figures)
 
 

@@ -1,0 +1,59 @@
+"""One option set on every command that analyses a body (issue 25): the same names, defaults, types and help;
+the same options give the same level in `analyze` and `settings`; -h, --quiet and plain metavars."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import typer.main
+from typer.testing import CliRunner
+
+from ffrf_advisor.cli import ANALYSIS_OPTIONS, app
+
+SAMPLES = Path(__file__).resolve().parent.parent / "sample_bodies"
+ANALYSING = ("analyze", "gate", "compare", "settings", "verify", "simulate", "report")
+runner = CliRunner()
+
+
+def _option_set(command: str) -> dict:
+    """name -> (flags, default, type, help) of the command's analysis options, as click sees them."""
+    group = typer.main.get_command(app)
+    params = group.get_command(None, command).params
+    return {p.name: (tuple(p.opts + p.secondary_opts), p.default, str(p.type_descriptor.annotation), p.help)
+            for p in params if p.name in ANALYSIS_OPTIONS}
+
+
+def test_every_analysing_command_has_the_same_analysis_options():
+    first = _option_set(ANALYSING[0])
+    assert set(first) == set(ANALYSIS_OPTIONS)
+    for command in ANALYSING[1:]:
+        assert _option_set(command) == first, command
+
+
+def test_settings_and_analyze_give_the_same_level_for_the_same_options():
+    """The conrod at 30 rad/s with --sigma-allow 400 (settings could not take the option before)."""
+    for extra in ([], ["--sigma-allow", "400"], ["--sigma-allow", "400", "--spin-axis", "2", "--q-cap", "0.5"]):
+        args = [str(SAMPLES / "conrod.ffrf.h5"), "--speed", "30rad/s", *extra, "--json"]
+        analysed = json.loads(runner.invoke(app, ["analyze", *args]).stdout)
+        settings = json.loads(runner.invoke(app, ["settings", *args]).stdout)
+        assert (settings["level"], settings["terms"]) == (analysed["level"], analysed["terms"]), extra
+
+
+@pytest.mark.parametrize("command", ["info", *ANALYSING, "sample", "convert", "augment", "schema"])
+def test_h_is_help_and_metavars_are_plain(command):
+    result = runner.invoke(app, [command, "-h"], env={"COLUMNS": "100"})
+    assert result.exit_code == 0 and result.stdout.startswith(f"Usage: root {command} [OPTIONS]")
+    assert not any(mark in result.stdout for mark in ("<str>", "<float>", "<int", "<path>", "<list", "{")), \
+        result.stdout
+    assert "--quiet" in result.stdout
+
+
+def test_quiet_silences_notes_but_not_errors():
+    args = ["analyze", str(SAMPLES / "beam.ffrf.h5"), "--speed", "300"]
+    loud, quiet = runner.invoke(app, args), runner.invoke(app, [*args, "--quiet"])
+    assert "note: speed 300 has no unit" in loud.stderr and "note:" not in quiet.stderr
+    assert quiet.stdout == loud.stdout and "warning: principal axis 3" in quiet.stderr  # warnings stay, on stderr
+    assert loud.stderr.replace(quiet.stderr, "").startswith("note: speed 300 has no unit")
+    bad = runner.invoke(app, [*args[:2], "--speed", "fast", "-q"])
+    assert bad.exit_code == 2 and bad.stderr.startswith("error: ")

@@ -57,3 +57,31 @@ def test_quiet_silences_notes_but_not_errors():
     assert loud.stderr.replace(quiet.stderr, "").startswith("note: speed 300 has no unit")
     bad = runner.invoke(app, [*args[:2], "--speed", "fast", "-q"])
     assert bad.exit_code == 2 and bad.stderr.startswith("error: ")
+
+
+def test_a_config_file_in_the_working_directory_is_named(tmp_path, monkeypatch):
+    """Issue 25: an ffrf-advisor.toml beside the user changes the advice; the headline and the JSON say so."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ffrf-advisor.toml").write_text('speed = "200rad/s"\n')
+    args = ["analyze", str(SAMPLES / "conrod.ffrf.h5")]
+    text = runner.invoke(app, args, env={"COLUMNS": "200"}).stdout
+    assert "200 rad/s" in text and "options from ffrf-advisor.toml" in text
+    data = json.loads(runner.invoke(app, [*args, "--json"]).stdout)
+    assert data["situation"]["config"] == "ffrf-advisor.toml" and data["decided_by"] in text
+    (tmp_path / "ffrf-advisor.toml").unlink()
+    assert json.loads(runner.invoke(app, [*args, "--json"]).stdout)["situation"]["config"] is None
+
+
+def test_verify_tells_its_progress_once_per_step_up_to_the_total():
+    """The progress of verify (issue 25): every run and study is told once; the count ends at the total."""
+    from ffrf_advisor.analysis import Options, analyze
+    from ffrf_advisor.guidelines import Situation
+    from ffrf_advisor.io import read_body
+    from ffrf_advisor.verify.scenes import SceneOptions
+    from ffrf_advisor.verify.study import run_study
+    a = analyze(read_body(SAMPLES / "conrod.ffrf.h5"), Options(situation=Situation(w_op=30.0)))
+    told = []
+    run_study(a, ["free-spin"], repeats=1, scene_options=SceneOptions(axis=1), quick=True,
+              progress=lambda label, total: told.append((label, total)))
+    totals = {total for _, total in told}
+    assert len(totals) == 1 and len(told) == totals.pop() and told[0][0] == "reference free-spin (axis 1)"

@@ -16,7 +16,7 @@ from ffrf_advisor.adequacy import static_centrifugal
 from ffrf_advisor.fe.assembly import mass_matrix, stiffness_matrix
 from ffrf_advisor.fe.geometric import modal_geometric
 from ffrf_advisor.fe.modal import free_free_modes
-from ffrf_advisor.fe.build import fe_body
+from ffrf_advisor.fe_body import fe_body
 from ffrf_advisor.body import Provenance
 from ffrf_advisor.samples import N_MODES, RECIPES, SAMPLES
 

@@ -34,7 +34,7 @@ import numba as nb
 import numpy as np
 
 from ffrf_advisor.fe.assembly import full_mass
-from ffrf_advisor.fe.build import modal_body
+from ffrf_advisor.fe_body import modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh
 from ffrf_advisor.sim import kernels

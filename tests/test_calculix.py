@@ -12,7 +12,7 @@ import pytest
 
 from ffrf_advisor.errors import BodyFileError
 from ffrf_advisor.fe.assembly import mass_matrix, stiffness_matrix
-from ffrf_advisor.fe.build import modal_body
+from ffrf_advisor.fe_body import modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh
 from ffrf_advisor.invariants import shape_integrals

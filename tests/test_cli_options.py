@@ -85,3 +85,33 @@ def test_verify_tells_its_progress_once_per_step_up_to_the_total():
               progress=lambda label, total: told.append((label, total)))
     totals = {total for _, total in told}
     assert len(totals) == 1 and len(told) == totals.pop() and told[0][0] == "reference free-spin (axis 1)"
+
+
+def _numbers(cell: str) -> list[float]:
+    return [float(x) for x in cell.split()]
+
+
+@pytest.mark.parametrize("columns", ["80", pytest.param("120", marks=pytest.mark.slow)])
+def test_every_value_stands_under_its_label_at_80_and_120_columns(columns):
+    """Issue 25: the compare table and analyze's q_max table read back from the text (COLUMNS=80, 120) give the
+    numbers of --json, each under its body and label (3 and 5 significant digits printed: rel 5e-3, 5e-5)."""
+    from .text_tables import read_table
+    bodies = [str(SAMPLES / f"{n}.ffrf.h5") for n in ("beam", "conrod", "genstruct1", "genstruct2")]
+    args = ["compare", *bodies, "--speed", "1rad/s"]
+    data = json.loads(runner.invoke(app, [*args, "--json"]).stdout)
+    table = {row["quantity"]: row for row in read_table(runner.invoke(app, args, env={"COLUMNS": columns}).stdout,
+                                                         "comparison (first")}
+    shown = data["shown_modes"]
+    for b in data["bodies"]:
+        assert _numbers(table["mass [t]"][b["name"]]) == pytest.approx([b["mass"]], rel=5e-3)
+        assert _numbers(table["f [Hz]"][b["name"]]) == pytest.approx(b["frequencies"][:shown], rel=5e-3)
+        assert _numbers(table["q_max [sqrt(t) mm]"][b["name"]]) == pytest.approx(b["q_max"][:shown], rel=5e-3)
+        norms = [b["norms"][k] for k in ("I0", "W1", "W2", "W3")]
+        assert _numbers(table["|I0| |W1| |W2| |W3|"][b["name"]]) == pytest.approx(norms, rel=5e-3)
+        assert table["level"][b["name"]] == b["level"]
+    analyze = ["analyze", bodies[0], "--speed", "300rad/s"]
+    amp = json.loads(runner.invoke(app, [*analyze, "--json"]).stdout)["amplitudes"]
+    rows = read_table(runner.invoke(app, analyze, env={"COLUMNS": columns}).stdout, "maximum modal coordinates")
+    assert [float(r["q_max [sqrt(t) mm]"]) for r in rows] == pytest.approx(amp["q_max"], rel=5e-5)
+    assert [r["governs"] for r in rows] == amp["governs"]
+    assert [float(r["sigma / sigma_allow"]) for r in rows] == pytest.approx(amp["stress_utilisation"], rel=5e-3)

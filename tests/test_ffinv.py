@@ -13,7 +13,7 @@ from ffrf_advisor.adams import from_adams, to_adams, w3_from_I9
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.cli import app
 from ffrf_advisor.errors import BodyFileError
-from ffrf_advisor.fe.build import modal_body
+from ffrf_advisor.fe_body import modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import Box, box_union_mesh
 from ffrf_advisor.guidelines import Situation

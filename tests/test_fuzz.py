@@ -14,7 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
-from ffrf_advisor.fe.build import modal_body
+from ffrf_advisor.fe_body import modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh
 from ffrf_advisor.io import write_body

@@ -11,7 +11,7 @@ from ffrf_advisor.adequacy import static_centrifugal
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.body import rotated_pairs
 from ffrf_advisor.fe.assembly import full_mass, stiffness_matrix
-from ffrf_advisor.fe.build import modal_body
+from ffrf_advisor.fe_body import modal_body
 from ffrf_advisor.fe.geometric import geometric_scalar
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh

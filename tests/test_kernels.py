@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from ffrf_advisor.fe.build import modal_body
+from ffrf_advisor.fe_body import modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh
 from ffrf_advisor.sim import equations as eq

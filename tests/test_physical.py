@@ -104,7 +104,7 @@ def test_a_native_body_in_its_mesh_frame_is_transformed_by_convert(tmp_path):
     from dataclasses import replace
 
     from ffrf_advisor.checks import run_checks
-    from ffrf_advisor.fe.build import modal_body
+    from ffrf_advisor.fe_body import modal_body
     from ffrf_advisor.fe.material import STEEL
     from ffrf_advisor.fe.mesh import box_mesh
 

@@ -130,34 +130,175 @@ def test_the_html_renders_in_headless_chromium(beam_html, tmp_path):
     assert (pixels < 200).mean() > 0.01  # text, tables and figures: not a blank page
 
 
+A4 = (595.28, 841.89)  # pt
+PDF_MARGIN = 16 * 72 / 25.4  # left and right page margins of report/templates/print.css, pt
+
+
+def _a4(reader) -> None:
+    sizes = [(float(p.mediabox.width), float(p.mediabox.height)) for p in reader.pages]
+    assert all(abs(w - A4[0]) < 1 and abs(h - A4[1]) < 1 for w, h in sizes), sorted(set(sizes))
+
+
+def _words(text: str) -> set[str]:
+    return set(text.split())
+
+
+def _rendered_pages(path, folder, dpi=30) -> list:
+    """Every page of the PDF as a grey-level array (pdftoppm), or a skip naming the Debian package."""
+    if shutil.which("pdftoppm") is None:
+        pytest.skip("pdftoppm (Debian poppler-utils) is not installed: the pages were not rendered")
+    subprocess.run(["pdftoppm", "-png", "-r", str(dpi), str(path), str(folder / "page")], check=True, timeout=120)
+    from PIL import Image
+
+    return [np.asarray(Image.open(p).convert("L")) for p in sorted(folder.glob("page*.png"))]
+
+
+def _needs_pango() -> None:
+    """Skip, naming what to install, where WeasyPrint cannot load Pango (.ci/run installs it)."""
+    from ffrf_advisor.errors import FFRFError
+    from ffrf_advisor.report import pdf
+
+    try:
+        pdf.weasyprint(Path("report.pdf"))
+    except FFRFError as e:
+        pytest.skip(str(e))
+
+
+def _hide_weasyprint(monkeypatch, error: type[Exception]) -> None:
+    """``import weasyprint`` fails as without Pango (OSError from cffi) or without the package (ImportError)."""
+    import builtins
+
+    real = builtins.__import__
+
+    def fake(name, *args, **kwargs):
+        if name == "weasyprint" or name.startswith("weasyprint."):
+            raise error("cannot load library 'libpango-1.0-0': libpango-1.0-0: cannot open shared object file")
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", fake)
+
+
+@pytest.mark.parametrize("error, says", [(OSError, "PDF needs Pango (Debian: apt install libpango-1.0-0 "
+                                                    "libpangoft2-1.0-0); the .html report needs nothing"),
+                                         (ImportError, "pip install weasyprint")])
+def test_a_pdf_without_weasyprint_or_pango_is_refused_in_one_line(tmp_path, monkeypatch, error, says):
+    _hide_weasyprint(monkeypatch, error)
+    out = tmp_path / "x.pdf"
+    result = runner.invoke(app, ["report", str(BEAM), "--speed", "1rad/s", "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    assert result.output.startswith(f"error: {out}: ") and says in result.output, result.output
+    assert result.output.count("\n") == 1 and "Traceback" not in result.output and "-----" not in result.output
+    assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+ROWS = 60
+
+
+def test_a_long_wide_table_breaks_across_a4_pages_with_its_header_on_each(tmp_path):
+    """Typesetting alone (no analysis, no figure): 60 rows of a 7-column table with a long last column, as the
+    verdict's rules table, fit the page width and repeat their header row on every page they reach."""
+    import pypdf
+
+    from ffrf_advisor.report import pdf
+    from ffrf_advisor.report.document import Document, Section
+
+    reason = "predicted static error 1 (principal axis 1) > 0.005: needs cf1, inertia_lin, cor1, inertia_quad"
+    rows = [(f"row{k:03d}", "gyro0+W1+W2+W3", "0.6361", "0.005", "not evaluated",
+             "cf1, inertia_lin, cor1, inertia_quad, cf2", f"{reason} ({k})") for k in range(ROWS)]
+    _needs_pango()
+    header = ("rule", "measure", "value", "threshold", "outcome", "terms", "reasonheader")
+    doc = Document("wide", [Section("Before", [("fields", [("SHA-256", "d7" * 32)])]),
+                            Section("The table", [("table", (header, rows))]), Section("After", [("items", ["end"])])],
+                   [("tool", "ffrf-advisor test"), ("date", "today")])
+    path = tmp_path / "t.pdf"
+    pages = pdf.write(doc, path)
+    reader = pypdf.PdfReader(path)
+    assert len(reader.pages) == pages >= 2
+    _a4(reader)
+    starts = []  # where each text run starts: never in the right margin or beyond the page
+
+    def visit(text, cm, tm, font, size):
+        if text.strip():
+            starts.append((tm[4] * cm[0] + tm[5] * cm[2] + cm[4], text))
+
+    texts = [p.extract_text(visitor_text=visit) for p in reader.pages]
+    spanned = [k for k, t in enumerate(texts) if "gyro0+W1+W2+W3" in t]
+    assert len(spanned) >= 2 and all("reasonheader" in texts[k] for k in spanned)
+    assert all(f"row{k:03d}" in "".join(texts) for k in range(ROWS))  # no row lost at a page break
+    assert f"page 1 of {pages}" in texts[0] and f"page {pages} of {pages}" in texts[-1]
+    assert "Contents" in texts[0] and "The table" in texts[0]
+    assert starts and max(x for x, _ in starts) < A4[0] - PDF_MARGIN, max(starts)
+
+
 @pytest.mark.slow
-def test_the_pdf_opens_with_its_pages_and_its_first_page_is_not_blank(tmp_path):
+def test_the_pdf_is_the_html_report_on_numbered_a4_pages_with_contents(tmp_path):
+    """The beam's report: the HTML typeset (same words, every section), A4 pages "page N of M", a contents list
+    with the sections' page numbers, every page rendered by pdftoppm and none blank, nothing in the side
+    margins (tables and figures fit the page)."""
     import pypdf
 
     from ffrf_advisor.analysis import Options, analyze
     from ffrf_advisor.guidelines import Situation
     from ffrf_advisor.io import read_body
-    from ffrf_advisor.report import document, pdf
+    from ffrf_advisor.report import document, html, pdf
 
+    _needs_pango()
     a = analyze(read_body(BEAM, load_fe=True), Options(situation=Situation(w_op=1.0)))
+    doc = document.single(a, str(BEAM))
+    text = html.render(doc)
+    titles = [s.title for s in doc.sections]
+    assert all(f">{t}</h2>" in text for t in titles)
     path = tmp_path / "r.pdf"
-    pages = pdf.write(document.single(a, str(BEAM)), path)
+    pages = pdf.typeset(text, path)
     reader = pypdf.PdfReader(path)
-    assert len(reader.pages) == pages >= FIGURES + 1  # every figure on its page, the text before them
-    assert "level IV" in reader.pages[0].extract_text()
-    if shutil.which("pdftoppm") is None:
-        pytest.skip("pdftoppm (Debian poppler-utils) is not installed: the page was not rendered")
-    subprocess.run(["pdftoppm", "-png", "-r", "50", "-f", "1", "-l", "1", str(path), str(tmp_path / "page")],
-                   check=True, timeout=60)
-    from PIL import Image
+    assert len(reader.pages) == pages >= 4
+    _a4(reader)
+    texts = [p.extract_text() for p in reader.pages]
+    everything = "\n".join(texts)
+    assert "level IV" in texts[0] and all(f"page {k + 1} of {pages}" in t for k, t in enumerate(texts))
+    assert texts[0].index("Contents") < texts[0].index("Verdict for beam: level IV")
+    for t in titles:  # in the contents with a page number, and on that page
+        line = next(line for line in texts[0].splitlines() if line.startswith(t))
+        number = int(line.rstrip().rsplit(" ", 1)[1].strip("."))
+        assert 1 <= number <= pages and t in texts[number - 1], (t, line)
+    missing = _words(_prose(text)) - _words(everything)
+    assert not missing, sorted(missing)[:20]
+    images = _rendered_pages(path, tmp_path)
+    assert len(images) == pages
+    for k, pixels in enumerate(images):
+        assert (pixels < 200).mean() > 0.01, f"page {k + 1} is blank"
+        margin = int(pixels.shape[1] * (PDF_MARGIN - 4) / A4[0])
+        assert (pixels[:, :margin] > 240).all() and (pixels[:, -margin:] > 240).all(), f"page {k + 1} overflows"
 
-    pixels = np.asarray(Image.open(next(tmp_path.glob("page*.png"))).convert("L"))
-    assert (pixels < 200).mean() > 0.005
+
+class Prose(HTMLParser):
+    """The text a reader sees of an HTML report but the figures' own lettering (inside <svg>) and the CSS."""
+
+    def __init__(self):
+        super().__init__()
+        self.skip, self.text = 0, []
+
+    def handle_starttag(self, tag, attrs):
+        self.skip += tag in ("svg", "style", "title")
+
+    def handle_endtag(self, tag):
+        self.skip -= tag in ("svg", "style", "title")
+
+    def handle_data(self, data):
+        if not self.skip:
+            self.text.append(data)
+
+
+def _prose(markup: str) -> str:
+    parser = Prose()
+    parser.feed(markup)
+    parser.close()
+    return " ".join(parser.text)
 
 
 @pytest.mark.slow
 def test_a_verification_is_run_or_passed_in(tmp_path):
-    from ffrf_advisor.fe.build import modal_body
+    from ffrf_advisor.fe_body import modal_body
     from ffrf_advisor.fe.material import STEEL
     from ffrf_advisor.fe.mesh import box_mesh
     from ffrf_advisor.io import write_body

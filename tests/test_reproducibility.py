@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from ffrf_advisor.equivalence import compare_modal_bodies
-from ffrf_advisor.fe.build import fe_body, modal_body
+from ffrf_advisor.fe_body import fe_body, modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import Mesh, box_mesh
 from ffrf_advisor.fe.stress import modal_von_mises

@@ -13,7 +13,7 @@ import typer
 
 from ffrf_advisor.cli import app
 
-HEAVY = ("numpy", "scipy", "h5py", "numba", "matplotlib")
+HEAVY = ("numpy", "scipy", "h5py", "numba", "matplotlib", "weasyprint")
 PROBE = f"""
 import sys
 from ffrf_advisor.cli import app

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from ffrf_advisor.schemas import schema
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.cli import app
-from ffrf_advisor.fe.build import modal_body
+from ffrf_advisor.fe_body import modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh
 from ffrf_advisor.guidelines import Situation
@@ -228,9 +228,12 @@ def test_at_most_nf_oscillations_are_the_modes_and_the_least_modal_is_left_to_th
 def test_the_conrods_campbell_branches_about_axis_2_have_no_jumps():
     body = read_body(DIR / "conrod.ffrf.h5")  # its wobble crosses mode 1 near 660 Hz
     speeds = np.linspace(0.0, 0.6 * softening_speeds(body)[1], 40)
-    f, _ = campbell(build_model(body, FULL), np.eye(3)[1], speeds)
-    assert f.shape == (len(speeds), body.nf) and not np.isnan(f).any()
-    assert np.abs(np.diff(f, axis=0)).max() < 0.02 * f.max()  # a branch swap would jump by a mode's spacing
+    f, gaps = campbell(build_model(body, FULL), np.eye(3)[1], speeds)
+    drawn = np.array([g == "" for g in gaps])  # the last samples flutter (tests/test_campbell.py): a gap there
+    assert f.shape == (len(speeds), body.nf) and set(gaps) <= {"", "unstable"} and drawn[:30].all()
+    assert not np.isnan(f[drawn]).any() and np.isnan(f[~drawn]).all()
+    stable = f[:len(drawn) if drawn.all() else int(np.argmin(drawn))]
+    assert np.abs(np.diff(stable, axis=0)).max() < 0.02 * stable.max()  # a branch swap jumps by a mode's spacing
 
 
 # ---------------------------------------------------------------- the command

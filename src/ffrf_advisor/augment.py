@@ -16,7 +16,7 @@ from .adequacy import static_centrifugal
 from .body import FlexibleBody
 from .errors import FFRFError
 from .fe.assembly import full_mass, stiffness_matrix
-from .fe.build import fe_body, with_centrifugal_response
+from .fe_body import fe_body, with_centrifugal_response
 from .fe.mesh import Mesh
 from .fe.stress import modal_von_mises
 from .transform import to_section1_form

@@ -508,8 +508,8 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), as_jso
 @analysis_options
 def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several give the comparison first."),
            output: Path = typer.Option(..., "--output", "-o", help="Report file: .html (self-contained) or .pdf."),
-           verify: bool = typer.Option(False, "--verify", help="Verify each advice by simulation (about a "
-                                                               "minute per small body) and include it."),
+           verify: bool = typer.Option(False, "--verify", help="Verify each advice by simulation (the beam: "
+                                                               "about 20 s) and include it."),
            verification: Optional[list[Path]] = typer.Option(
                None, "--verification", help="Include a verification already run: the JSON of `verify --json -o "
                                             "DIR` (its figures are read from DIR), one per body in order."),

@@ -13,7 +13,7 @@ from typing import Callable
 
 from .body import FlexibleBody
 from .errors import FFRFError
-from .fe.build import modal_body
+from .fe_body import modal_body
 from .fe.material import STEEL
 from .fe.mesh import Box, Mesh, box_mesh, box_union_mesh, round_hole
 from .names import SAMPLES

@@ -29,7 +29,7 @@ import numpy as np
 from .body import FlexibleBody
 from .errors import FFRFError
 from .fe.assembly import mass_matrix
-from .fe.build import modal_body
+from .fe_body import modal_body
 from .fe.material import ALUMINIUM, STEEL, TITANIUM, Material
 from .fe.mesh import Box, Mesh, box_mesh, box_union_mesh, cylindrical, round_cross
 

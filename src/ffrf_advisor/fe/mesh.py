@@ -6,7 +6,6 @@ from typing import Callable, Sequence
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from .elements import element_type
 
@@ -56,6 +55,7 @@ class Mesh:
         n = self.n_nodes
         pairs = cKDTree(self.points).query_pairs(tol, output_type="ndarray")
         graph = sp.coo_array((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        from scipy.sparse.csgraph import connected_components  # scipy.linalg: ~0.1 s of import the analysis of a cached body does without
         _, label = connected_components(graph, directed=False)
         _, first = np.unique(label, return_index=True)  # one node of each group, by label
         return Mesh(self.points[first], {name: label[conn] for name, conn in self.cells.items()})

@@ -5,7 +5,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from .assembly import full_mass
 
@@ -43,6 +42,7 @@ def free_free_modes(K: sp.sparray, Ms: sp.sparray, X: np.ndarray, n_flex: int,
     if shift is None:
         shift = -1e-3 * _rayleigh_scale(K, M)
     v0 = np.cos(np.arange(n3) * 0.7548776662466927)  # deterministic start: reproducible output
+    import scipy.sparse.linalg as spla  # scipy.linalg: ~0.1 s of import the analysis of a cached body does without
     lam, vec = spla.eigsh(K, k=k, M=M, sigma=shift, which="LM", v0=v0, tol=0.0)
     order = np.argsort(lam)
     lam, vec = lam[order], vec[:, order]

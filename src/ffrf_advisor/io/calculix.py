@@ -22,7 +22,7 @@ import scipy.sparse as sp
 from ..body import FlexibleBody, Provenance
 from ..errors import BodyFileError
 from ..fe.assembly import full_mass, mass_matrix
-from ..fe.build import fe_body, mass_normalised_file_modes, with_centrifugal_response
+from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from ..fe.material import Material
 from ..fe.mesh import Mesh
 from ..fe.stress import von_mises

@@ -20,7 +20,7 @@ import numpy as np
 from ..body import FlexibleBody, Provenance
 from ..errors import BodyFileError
 from ..fe.assembly import mass_matrix
-from ..fe.build import fe_body, mass_normalised_file_modes, with_centrifugal_response
+from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from ..fe.elements import ELEMENT_TYPES
 from ..fe.material import Material
 from ..fe.mesh import Mesh

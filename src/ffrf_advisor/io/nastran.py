@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import os
 from collections import Counter
-from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -25,6 +24,7 @@ from ..fe.modal import mode_signs
 from ..fe.mesh import Mesh
 from ..transform import free_surface_ritz
 from . import Format, guard, nastran_dmig, register
+from .nastran_modes import NastranModes
 from .nastran_mass import (NodalMass, assembled_mass, generalized_mass_error, modes_with_extra_nodes,
                            rotary_share)
 from .nastran_stress import nodal_stress
@@ -39,21 +39,6 @@ FREE_K_TOL = 1e-6  # |K r| / |K| |r| of a free body's K: round-off of the punch'
 PUNCH = (".pch", ".PCH")  # where PARAM,EXTOUT,DMIGPCH puts MAAX and KAAX
 DECK = (".bdf", ".dat", ".nas", ".BDF", ".DAT", ".NAS")  # the input deck, for the geometry
 DECK_FACTOR = 16  # bytes of pyNastran's card objects per byte of deck
-
-
-@dataclass
-class NastranModes:
-    """A parsed SOL 103 run, in basic coordinates, before any requirement on it."""
-
-    grids: np.ndarray        # (n,) grid ids
-    points: np.ndarray       # (n, 3)
-    eigenvalues: np.ndarray  # (nm,)
-    generalized_mass: np.ndarray  # (nm,)
-    T: np.ndarray            # (n, 3, nm) translations
-    R: np.ndarray            # (n, 3, nm) rotations
-    sigma_max: np.ndarray | None  # (nm,) the largest of stress_nodal
-    element_types: dict[str, int]
-    stress_nodal: np.ndarray | None = None  # (n, nm) von Mises averaged at the grids
 
 
 def _load(path):

@@ -10,7 +10,6 @@ modal masses it gives the run's modes:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -18,9 +17,7 @@ import scipy.sparse as sp
 from ..errors import BodyFileError
 from ..fe.assembly import mass_matrix
 from ..fe.mesh import Mesh
-
-if TYPE_CHECKING:
-    from .nastran import NastranModes
+from .nastran_modes import NastranModes
 
 LINES = ("CBAR", "CBEAM", "CROD", "CONROD", "CTUBE")
 SHELLS = ("CQUAD4", "CQUADR", "CQUAD8", "CTRIA3", "CTRIAR", "CTRIA6")

@@ -121,13 +121,15 @@ def analysis_summary(console: Console, a, warnings: Console | None = None) -> No
     _candidates(console, a)
     t = Table(title=f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "
                     f"sigma_allow {amp.sigma_allow:.4g} {u.stress})")
-    for col in ("mode", f"f {_unit(u.frequency)}", f"q_max {_unit(f'sqrt({u.mass}) {u.length}')}", "governs",
-                "sigma/sigma_allow", "deflection/L"):
-        t.add_column(col, justify="left" if col == "governs" else "right")
-    for p in range(b.nf):
-        t.add_row(str(p + 1), f"{b.frequencies_hz[p]:.4g}", f"{amp.q_max[p]:.4e}", amp.governs[p],
-                  "-" if amp.stress_utilisation is None else f"{amp.stress_utilisation[p]:.3g}",
-                  "-" if amp.deflection_ratio is None else f"{amp.deflection_ratio[p]:.3g}")
+    rows = [(str(p + 1), f"{b.frequencies_hz[p]:.4g}", f"{amp.q_max[p]:.4e}", amp.governs[p],
+             "-" if amp.stress_utilisation is None else f"{amp.stress_utilisation[p]:.3g}",
+             "-" if amp.deflection_ratio is None else f"{amp.deflection_ratio[p]:.3g}") for p in range(b.nf)]
+    for k, col in enumerate(("mode", f"f {_unit(u.frequency)}", f"q_max {_unit(f'sqrt({u.mass}) {u.length}')}",
+                             "governs", "sigma / sigma_allow", "deflection / L")):
+        t.add_column(col, justify="left" if col == "governs" else "right",  # headers break at blanks, values never
+                     min_width=max((len(r[k]) for r in rows), default=1))
+    for row in rows:
+        t.add_row(*row)
     console.print(t)
     m = Table(title=f"significance per axis (max over the first {sig.n_ratio} modes; theory 7)")
     for col in ("axis", "dI_L", "dI_Q", "dI_fT", f"s_crit {_unit(f'rad/{u.time}')}", "with G"):
@@ -309,9 +311,15 @@ def _studies_report(console: Console, s: dict, campbell: dict, t: str) -> None:
                       + ("" if onset.get("bounded_with_geo_stiff") is None else
                          "; with geo_stiff " + ("bounded" if onset["bounded_with_geo_stiff"] else "NOT bounded")),
                       highlight=False)
-    errs = campbell["frequency_error"]
-    console.print("Campbell, largest frequency error against the full set: "
-                  + ", ".join(f"{k} {_err(x)}" for k, x in errs.items()), highlight=False)
+    console.print(campbell_line(campbell, t), highlight=False)
+
+
+def campbell_line(campbell: dict, t: str) -> str:
+    """The Campbell errors of each set against the scenes' reference, naming it, the axis and the speed (a JSON
+    of schema 3 before the reference was named: "the full set")."""
+    where = f" about principal axis {campbell['axis_of_error']} at {campbell['speed']:.4g} rad/{t}"
+    return (f"Campbell, largest frequency error against the reference ({campbell.get('reference', 'full set')})"
+            + where + ": " + ", ".join(f"{k} {_err(x)}" for k, x in campbell["frequency_error"].items()))
 
 
 def verification_report(console: Console, d: dict) -> None:

@@ -1,8 +1,10 @@
-"""A report as one self-contained HTML file (Jinja2, autoescaped): charts as inline SVG, 3-D pictures and
-verification images as embedded PNG; no script, no external reference."""
+"""A report as one self-contained HTML file (Jinja2, autoescaped): a contents list, charts as inline SVG, 3-D
+pictures and verification images as embedded PNG; no script, no external reference. Its print stylesheet
+(templates/print.css, under @media print) makes the A4 pages of report.pdf (pdf.py) and of a browser's print."""
 from __future__ import annotations
 
 import base64
+import hashlib
 import io
 import re
 from pathlib import Path
@@ -17,15 +19,23 @@ from .document import Document
 PNG_DPI = 90
 _SVG_START = re.compile(r"<svg\b")
 _METADATA = re.compile(r"<metadata>.*?</metadata>\s*", re.S)
+_ID = re.compile(r'\sid="([^"]*)"')
+_REFERENCE = re.compile(r"#([^\s\"')]+)")
 
 
 def _svg(fig) -> str:
-    """The figure's SVG element alone (no XML prolog, DOCTYPE or metadata); text as text (small files)."""
+    """The figure's SVG element alone (no XML prolog, DOCTYPE or metadata); text as text (small files). Only the
+    ids something refers to stay (markers, clip paths), prefixed by a hash of the figure: matplotlib names every
+    group (figure_1, axes_1, line2d_1...) alike in every figure, ids the page would hold many times."""
     buf = io.StringIO()
     with plt.rc_context({"svg.fonttype": "none", "svg.hashsalt": "ffrf"}):
         fig.savefig(buf, format="svg", bbox_inches="tight", metadata={"Date": None})
     text = buf.getvalue()
-    return _METADATA.sub("", text[_SVG_START.search(text).start():])
+    svg = _METADATA.sub("", text[_SVG_START.search(text).start():])
+    ids = set(_ID.findall(svg)) & set(_REFERENCE.findall(svg))
+    prefix = "f" + hashlib.sha256(svg.encode()).hexdigest()[:8] + "-"
+    svg = _ID.sub(lambda m: f' id="{prefix}{m.group(1)}"' if m.group(1) in ids else "", svg)
+    return _REFERENCE.sub(lambda m: f"#{prefix}{m.group(1)}" if m.group(1) in ids else m.group(0), svg)
 
 
 def _png(source) -> str:

@@ -14,13 +14,15 @@ import numpy as np  # noqa: E402
 
 from ..analysis import Analysis  # noqa: E402
 from ..guidelines import THRESHOLDS  # noqa: E402
-from ..sim.linearise import campbell  # noqa: E402
+from ..sim.linearise import campbell, campbell_speeds  # noqa: E402
 from ..sim.model import build_model  # noqa: E402
 from ..terms import FULL  # noqa: E402
+from ..units import TIME  # noqa: E402
 from .figures import modes_figure  # noqa: E402
+from .verify_figures import campbell_chart  # noqa: E402
 
 PAPER_MODES = 10  # the paper plots the first ten modes
-CAMPBELL_POINTS = 26  # as in verify: 12 ms a linearisation, 2 x 3 x 26 of them
+CAMPBELL_POINTS = 41  # as in verify: about 5 ms a linearisation, 2 x 3 x 41 of them
 MARKERS = "os^vDP*Xhp"
 AXES = ("axis 1", "axis 2", "axis 3")
 
@@ -128,30 +130,24 @@ def coupling(analyses: list[Analysis]):
 
 def campbell_diagram(a: Analysis):
     """Flexible frequencies against spin about each principal axis (full FFRF set, and with geo_stiff when the
-    body carries G); s_crit without and with stiffening marked (theory 9)."""
+    body carries G; the latter is then the reference of verify), drawn by ``verify_figures.campbell_chart``:
+    branches tracked by mode shape, gaps where the linearisation is singular or the set unstable, 1x and 2x per
+    revolution, s_crit without and with stiffening and w_op marked (theory 9, 10)."""
     body, sig = a.body, a.significance
-    crit = [c for c in (sig.s_crit, sig.s_crit_stiffened) if c is not None]
-    finite = np.concatenate([c[np.isfinite(c)] for c in crit]) if crit else np.array([])
-    top = 1.25 * max(finite.max() if finite.size else 0.0, a.options.situation.w_op or 0.0, 1e-9)
-    speeds = np.linspace(0.0, top, CAMPBELL_POINTS)
+    per_s = float(TIME[body.units.time])
+    w_op = (a.options.situation.w_op or 0.0) * per_s
+    speeds = [campbell_speeds(k, w_op, (sig.s_crit, sig.s_crit_stiffened), CAMPBELL_POINTS, 1.25) for k in range(3)]
     sets = {"full FFRF": FULL}
     if body.geometric is not None:
         sets["full FFRF + geo_stiff"] = (*FULL, "geo_stiff")
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), sharey=True)
-    for k, ax in enumerate(axes):
-        for i, (name, terms) in enumerate(sets.items()):
-            f, _ = campbell(build_model(body, terms), np.eye(3)[k], speeds)
-            for p in range(f.shape[1]):
-                ax.plot(speeds, f[:, p], color=f"C{i}", lw=0.8, ls="-" if i == 0 else "--",
-                        label=name if p == 0 else None)
-        for c, style, name in ((sig.s_crit, ":", "s_crit"), (sig.s_crit_stiffened, "-.", "s_crit with G")):
-            if c is not None and np.isfinite(c[k]):
-                ax.axvline(c[k], color="r", ls=style, lw=1, label=f"{name} {c[k]:.4g}")
-        ax.set_xlabel(f"spin about principal {AXES[k]} [rad/{body.units.time}]")
-        ax.legend(fontsize=6)
-    axes[0].set_ylabel(f"frequency [{body.units.frequency}]")
-    fig.suptitle("Campbell diagram: frequencies against spin (theory 9)")
-    return fig
+    branches = {(name, k): campbell(build_model(body, terms), np.eye(3)[k], speeds[k])
+                for name, terms in sets.items() for k in range(3)}
+    camp = {"speeds": speeds, "s_crit": sig.s_crit, "s_crit_stiffened": sig.s_crit_stiffened,
+            "speed": w_op, "w_op": w_op, "reference_label": list(sets)[-1],
+            "by_axis": {k: {name: branches[name, k].frequencies for name in sets} for k in range(3)},
+            "gaps": {k: {name: branches[name, k].gaps.tolist() for name in sets} for k in range(3)}}
+    return campbell_chart(camp, body.units.frequency, body.units.time,
+                          f"{label(body.name)}: Campbell diagram, frequencies against spin (theory 9)")
 
 
 def mesh_and_modes(a: Analysis, modes: int = 3):

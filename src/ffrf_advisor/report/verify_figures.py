@@ -96,22 +96,120 @@ def drift_chart(curves: dict, time_unit: str, title: str):
     return fig
 
 
-def campbell_chart(speeds, by_axis: dict, s_crit, freq_unit: str, speed_unit: str):
-    """Flexible frequencies against spin about each principal axis, one colour per term set; s_crit marked."""
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4.5), sharey=True)
+PER_REVOLUTION = (1, 2)  # engine orders drawn: f = k s / (2 pi)
+SHOWN_MODES = 6  # the frequency axis reaches the highest of the first six branches (or the 2x line)
+STYLES = ("-", "--", "-.", ":")
+
+
+def campbell_chart(camp: dict, freq_unit: str, speed_unit: str, title: str):
+    """The Campbell diagram as rotordynamics engineers draw it, one panel per principal axis: each term set's
+    branches (tracked by mode shape; one colour and dash per set, the reference broad and grey; sets with equal
+    branches on every axis drawn once and named together), gaps where the linearisation is singular or the set
+    unstable (the unstable speeds shaded, wide bands naming their sets), the 1x and 2x per-revolution lines
+    f = k s / (2 pi), s_crit without and with geometric stiffening and the operating speed as vertical lines
+    labelled along them, the legend below the panels. ``camp``: as ``verify.study.campbell_data`` (speeds and
+    by_axis per axis; gaps, s_crit, s_crit_stiffened, speed, w_op, axis_of_error, reference_label optional);
+    speeds in rad per ``speed_unit``, frequencies in ``freq_unit``."""
+    fig, axes = plt.subplots(1, 3, figsize=(14, 5.4), sharey=True, layout="constrained")
+    labels = list(camp["by_axis"][0])
+    stacked = {label: np.concatenate([np.asarray(camp["by_axis"][k][label], float) for k in range(3)])
+               for label in labels}
+    groups = _equal_sets(stacked)
+    nf = stacked[labels[0]].shape[1] if labels else 0
+    low = np.concatenate([f[:, :SHOWN_MODES][np.isfinite(f[:, :SHOWN_MODES])] for f in stacked.values()] + [[0.0]])
+    top = 1.05 * low.max() if low.max() > 0 else 1.0
+    others = [g for g in groups if camp.get("reference_label") not in g]
+    handles = {}
     for k, ax in enumerate(axes):
-        for i, (label, freqs) in enumerate(by_axis[k].items()):
-            ax.plot(speeds[k], freqs, color=f"C{i}", lw=1, label=label)
-        if s_crit is not None and np.isfinite(s_crit[k]):
-            ax.axvline(s_crit[k], color="r", ls="--", lw=1)
-            ax.text(s_crit[k], ax.get_ylim()[1] * 0.95, " s_crit", color="r", fontsize=7, va="top")
-        ax.set_xlabel(f"spin about axis {k + 1} [rad/{speed_unit}]")
-        ax.set_title(f"axis {k + 1}")
-    axes[0].set_ylabel(f"frequency [1/{freq_unit}]")
-    handles, labels = axes[0].get_legend_handles_labels()
-    unique = dict(zip(labels, handles))
-    axes[0].legend(unique.values(), unique.keys(), fontsize=7)
+        speeds = np.asarray(camp["speeds"][k], float)
+        for g in groups:
+            if g in others:
+                i = others.index(g)
+                style = dict(color=f"C{i}", ls=STYLES[i % len(STYLES)], lw=1, marker=".", ms=2.5, zorder=3)
+            else:  # the reference: broad and grey under the others, as in the trajectories
+                style = dict(color="k", lw=2.6, alpha=0.4, zorder=2)
+            line = ax.plot(speeds, np.asarray(camp["by_axis"][k][g[0]], float), **style)[0]
+            handles.setdefault(" = ".join(g) + ("" if g in others else " (reference)"), line)
+        _unstable_bands(ax, speeds, camp.get("gaps", {}).get(k, {}), groups)
+        for order in PER_REVOLUTION:
+            f = order * speeds / (2 * np.pi)
+            ax.plot(speeds, f, color="0.45", lw=0.8, ls=(0, (4, 3)), zorder=1)
+            j = np.flatnonzero(f <= top)[-1]
+            ax.annotate(f"{order}x", (speeds[j], f[j]), textcoords="offset points", xytext=(-3, 3), ha="right",
+                        va="bottom", fontsize=7, color="0.3")
+        marks = []
+        for c, colour, style, name in ((camp.get("s_crit"), "r", ":", "s_crit" if camp.get("s_crit_stiffened")
+                                        is None else "s_crit without G"),
+                                       (camp.get("s_crit_stiffened"), "darkred", "-.", "s_crit with G")):
+            if c is not None and np.isfinite(c[k]) and c[k] <= speeds[-1]:
+                marks.append((c[k], colour, style, f"{name} {c[k]:.4g}"))
+        speed = camp.get("speed")
+        if speed:
+            w_op = camp.get("w_op")
+            name = "w_op" if w_op and abs(w_op - speed) <= 1e-9 * speed else "spin of the scenes"
+            marks.append((speed, "g", "-", f"{name} {speed:.4g} rad/{speed_unit}"))
+        _verticals(ax, marks, speeds[-1])
+        scene = " (the scenes' axis: errors)" if camp.get("axis_of_error") == k else ""
+        ax.set_title(f"principal axis {k + 1}{scene}", fontsize=9)
+        ax.set_xlabel(f"spin about principal axis {k + 1} [rad/{speed_unit}]")
+        ax.set_xlim(0.0, speeds[-1])
+    axes[0].set_ylim(0.0, top)
+    axes[0].set_ylabel(f"frequency [{freq_unit}]")
+    shown = f"; frequencies up to the top of branch {SHOWN_MODES} of {nf}" if nf > SHOWN_MODES else ""
+    fig.legend(list(handles.values()), list(handles.keys()), loc="outside lower center", ncol=min(len(handles), 6),
+               fontsize=8, title_fontsize=8, title="term sets: flexible frequencies in the spinning body, tracked by "
+               f"mode shape; grey dashed: 1x, 2x per revolution; shaded: unstable{shown}")
+    fig.suptitle(title)
     return fig
+
+
+def _equal_sets(by_label: dict) -> list[list[str]]:
+    """Labels grouped by equal branches (to 1e-6, NaN equal to NaN: level I and II have the same frequencies
+    about a principal axis, cf1 only deflects), in order of first appearance."""
+    groups: list[list[str]] = []
+    for label, f in by_label.items():
+        for g in groups:
+            if np.allclose(by_label[g[0]], f, rtol=1e-6, atol=0.0, equal_nan=True):
+                g.append(label)
+                break
+        else:
+            groups.append([label])
+    return groups
+
+
+def _unstable_bands(ax, speeds: np.ndarray, gaps: dict, groups: list[list[str]]) -> None:
+    """Shade the speeds where sets are unstable (between the neighbouring samples' midpoints), each run of
+    samples with the same unstable sets one band; bands over a tenth of the range name their sets."""
+    unstable = {g[0]: [x == "unstable" for x in gaps.get(g[0], [])] or [False] * len(speeds) for g in groups}
+    names = [tuple(label for g in groups if unstable[g[0]][i] for label in g) for i in range(len(speeds))]
+    edges = np.concatenate([[speeds[0]], 0.5 * (speeds[1:] + speeds[:-1]), [speeds[-1]]])
+    i = 0
+    while i < len(speeds):
+        j = i
+        while j + 1 < len(speeds) and names[j + 1] == names[i]:
+            j += 1
+        a, b = edges[i], edges[j + 1]
+        if names[i]:
+            ax.axvspan(a, b, color="0.5", alpha=0.12 + 0.06 * (len(names[i]) > 1), lw=0, zorder=0)
+        if names[i] and b - a >= 0.1 * speeds[-1]:
+            ax.text(0.5 * (a + b), 0.5, "unstable:\n" + ",\n".join(names[i]), ha="center", va="center",
+                    fontsize=6.5, color="0.2", transform=ax.get_xaxis_transform(), zorder=5,
+                    bbox=dict(boxstyle="round,pad=0.2", fc="white", ec="0.6", alpha=0.85))
+        i = j + 1
+
+
+def _verticals(ax, marks: list, width: float) -> None:
+    """Vertical lines (x, colour, style, text), each labelled along it at the top of the panel, or at the foot
+    where a label already stands within 5 % of the width."""
+    placed: list[float] = []
+    for x, colour, style, text in sorted(marks, key=lambda m: m[0]):
+        ax.axvline(x, color=colour, ls=style, lw=1.2, zorder=4)
+        foot = any(abs(x - p) < 0.05 * width for p in placed)
+        if not foot:
+            placed.append(x)
+        ax.text(x, 0.02 if foot else 0.98, text, transform=ax.get_xaxis_transform(), rotation=90, ha="center",
+                va="bottom" if foot else "top", fontsize=7, color=colour, zorder=6,
+                bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.85))
 
 
 def stability_chart(stab: dict, time_unit: str, title: str):

@@ -61,10 +61,18 @@ def _studies(st) -> dict:
                                "serially on this machine", "points": st.work_precision,
                                "pareto": pareto(st.work_precision)},
             "stability": st.stability,
-            "campbell": {"axis_of_error": st.campbell["axis_of_error"] + 1, "speed": st.campbell["speed"],
-                         "frequency_error": st.campbell["frequency_error"], "s_crit": st.campbell["s_crit"],
-                         "speeds": st.campbell["speeds"],
-                         "frequencies": {str(k + 1): v for k, v in st.campbell["by_axis"].items()}}}
+            "campbell": _campbell(st.campbell)}
+
+
+def _campbell(c: dict) -> dict:
+    """The Campbell diagram's data: speeds and branches per axis (NaN, as null, where not drawn; gaps say why),
+    and each set's frequency error against the reference of the scenes at the scenes' speed about their axis."""
+    return {"axis_of_error": c["axis_of_error"] + 1, "speed": c["speed"], "reference": c["reference"],
+            "reference_terms": list(c["reference_terms"]), "frequency_error": c["frequency_error"],
+            "s_crit": c["s_crit"], "s_crit_with_geo_stiff": c["s_crit_stiffened"], "speeds": c["speeds"],
+            "sets": {label: list(terms) for label, terms in c["sets"].items()},
+            "frequencies": {str(k + 1): v for k, v in c["by_axis"].items()},
+            "gaps": {str(k + 1): v for k, v in c["gaps"].items()}}
 
 
 def study_json(st: Study, source: str) -> dict:

@@ -63,7 +63,8 @@ def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray) -> np.ndarray:
 
     ``q = r`` gives ``J2 = Qf^T W2 Qf``; ``(q', q)`` gives half of ``dJ2/dt``.
     """
-    G = np.einsum("...r,abrs,...s->...ab", q, m.Sbar, r)
+    Sr = np.tensordot(r, m.Sbar, axes=([-1], [3]))  # (..., 3, 3, nf): Sbar_ab r, one BLAS product
+    G = np.einsum("...r,...abr->...ab", q, Sr)
     G = 0.5 * (G + np.swapaxes(G, -1, -2))
     return _identity_times(np.trace(G, axis1=-2, axis2=-1)) - G
 

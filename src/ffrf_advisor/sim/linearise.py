@@ -14,6 +14,7 @@ below the frequency differences reported).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -21,6 +22,18 @@ from . import equations as eq
 from .model import Model
 
 UNSTABLE = 1e-6  # growth rate Re(mu) / |mu|_max above which the equilibrium counts as unstable
+# Campbell (``campbell``): a point is not drawn where the static stiffness K(s) of the set (symmetric) has an
+# eigenvalue within SINGULAR x Omega_1^2 of zero ("singular": its softest branch is then below sqrt(SINGULAR) = 3 %
+# of f_1, the static deflection grows as 1 / lambda and at s_crit itself the linearisation is undefined: a sample
+# on s_crit gave frequencies of 2,700 Hz on a beam whose modes lie below 2,000 Hz), nor where the set is unstable:
+# K(s) indefinite (past the set's own s_crit, theory 9; a gyroscopic system with negative stiffness may look
+# stable undamped, but any dissipation destabilises it, and the frequencies linearised about the large static
+# deflection there spiked to 970 Hz from 150 Hz on genstruct1) or an oscillation owned by the modes growing by
+# more than GROWTH of its own rate (Re(mu) > GROWTH |Im(mu)|: 0.6 % an oscillation; flutter where branches
+# meet). TIE weighs the frequency distance when the MAC ties (degenerate modes).
+SINGULAR = 1e-3
+GROWTH = 1e-3
+TIE = 1e-3
 
 
 @dataclass(frozen=True)
@@ -38,10 +51,16 @@ class Linearisation:
 
 def static_deflection(model: Model, w: np.ndarray) -> np.ndarray:
     """``q`` with ``flexible_force(q, 0, w) = 0``: the centrifugal deflection of the term set at spin w."""
+    K, f0 = _static_stiffness(model, w)
+    return np.linalg.solve(K, f0)
+
+
+def _static_stiffness(model: Model, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(K, f0): the flexible force at spin w is ``f0 - K q`` (K: Omega^2 - s^2 Kc + s^2 G for the full set)."""
     nf, zero = model.nf, np.zeros(model.nf)
     f0 = eq.flexible_force(model, zero, zero, w, zero)
     K = -(eq.flexible_force(model, np.eye(nf), np.zeros((nf, nf)), w, zero) - f0).T  # a column per q = e_j
-    return np.linalg.solve(K, f0)
+    return K, f0
 
 
 def _rates(model: Model, x: np.ndarray) -> np.ndarray:
@@ -76,11 +95,13 @@ def linearise(model: Model, axis, s: float) -> Linearisation:
 def modal_spectrum(model: Model, axis, s: float) -> tuple[np.ndarray, np.ndarray, bool]:
     """(frequencies [1/time], their mode shapes: the q parts of the eigenvectors as columns (nf, n), unstable)
     of the modes' oscillations at steady spin ``s`` about ``axis``, in ascending frequency."""
-    lin, shapes = _linearised(model, axis, s)
+    lin, shapes, _ = _linearised(model, axis, s)
     return lin.frequencies, shapes, lin.unstable
 
 
-def _linearised(model: Model, axis, s: float) -> tuple[Linearisation, np.ndarray]:
+def _linearised(model: Model, axis, s: float) -> tuple[Linearisation, np.ndarray, np.ndarray]:
+    """(the linearisation, the q parts of its modes' eigenvectors (nf, n) in ascending frequency, all the
+    eigenvectors as columns of (w, q, q'))."""
     a = np.asarray(axis, float)
     a = a / np.linalg.norm(a)
     w = s * a
@@ -94,7 +115,7 @@ def _linearised(model: Model, axis, s: float) -> tuple[Linearisation, np.ndarray
     own = osc[modal][np.argsort(mu.imag[osc[modal]], kind="stable")]
     to_hz = lambda idx: np.sort(mu.imag[idx]) / (2 * np.pi)  # noqa: E731
     lin = Linearisation(s, a, q, mu, to_hz(own), to_hz(osc[~modal]), unstable)
-    return lin, V[3:3 + model.nf, own]
+    return lin, V[3:3 + model.nf, own], V
 
 
 def _modal_oscillations(share: np.ndarray, nf: int) -> np.ndarray:
@@ -116,12 +137,66 @@ def _modal_share(model: Model, V: np.ndarray) -> np.ndarray:
     return flex / (flex + rot)
 
 
-def campbell(model: Model, axis, speeds) -> tuple[np.ndarray, np.ndarray]:
-    """(flexible frequencies (len(speeds), nf) [1/time], NaN where a mode has lost its frequency; unstable flags)."""
-    rows, flags = [], []
-    for s in speeds:
-        lin = linearise(model, axis, s)
-        f = lin.frequencies
-        rows.append(np.pad(f, (model.nf - len(f), 0), constant_values=np.nan))
-        flags.append(lin.unstable)
-    return np.array(rows), np.array(flags)
+class Campbell(NamedTuple):
+    """Branches of a term set against spin (``campbell``): ``frequencies`` (len(speeds), nf) [1/time], column p
+    the branch of mode p, NaN where no point is drawn; ``gaps`` per speed "" (drawn), "singular" (the static
+    stiffness is singular: the linearisation is undefined, at s_crit) or "unstable" (past s_crit, or an
+    oscillation of the modes grows: the set cannot hold the steady spin)."""
+
+    frequencies: np.ndarray
+    gaps: np.ndarray
+
+
+def campbell(model: Model, axis, speeds) -> Campbell:
+    """The flexible frequencies of the term set at steady spin about ``axis`` at each of ``speeds`` (ascending), as
+    branches: column p starts as mode p (its shape at rest is the unit vector e_p) and is followed from speed to
+    speed by its mode shape, the q part of the eigenvector (modal coordinates are mass-normalised, so the plain
+    MAC is the mass-weighted one): the MAC of each branch's last shape with each new shape, assigned by
+    ``scipy.optimize.linear_sum_assignment`` (ties by frequency), so branches cross where the modes cross instead
+    of swapping at the crossing as sorted frequencies do. No point where the linearisation is singular or the set
+    unstable (``Campbell.gaps``): a row of NaN, a gap in every branch, not a spike; a single NaN where a branch's
+    oscillation belongs to the rigid wobble at that speed (near a crossing with it)."""
+    from scipy.optimize import linear_sum_assignment
+    nf, speeds = model.nf, np.asarray(speeds, float)
+    f = np.full((len(speeds), nf), np.nan)
+    gaps = np.full(len(speeds), "", dtype=object)
+    last, last_f = np.eye(nf, dtype=complex), np.sqrt(np.abs(model.eigenvalues)) / (2 * np.pi)
+    for i, s in enumerate(speeds):
+        freqs, shapes, gaps[i] = _campbell_point(model, axis, s)
+        if gaps[i] or not len(freqs):
+            continue
+        A = last / np.linalg.norm(last, axis=0)
+        B = shapes / np.linalg.norm(shapes, axis=0)
+        mac = np.abs(A.conj().T @ B) ** 2  # (branches, new oscillations)
+        near = np.abs(freqs[None, :] - last_f[:, None]) / max(last_f.max(), freqs.max())
+        rows, cols = linear_sum_assignment(-(mac - TIE * np.minimum(near, 1.0)))
+        f[i, rows] = freqs[cols]
+        last[:, rows], last_f[rows] = shapes[:, cols], freqs[cols]
+    return Campbell(f, gaps)
+
+
+def campbell_speeds(k: int, speed: float, s_crits, points: int, margin: float) -> np.ndarray:
+    """``points`` speeds from 0 to ``margin`` x the largest of ``speed`` and the finite s_crit about axis k of
+    each of ``s_crits`` (arrays per principal axis, or None): each axis its own range."""
+    crit = [c[k] for c in s_crits if c is not None and np.isfinite(c[k])]
+    return np.linspace(0.0, margin * max([speed, 1e-9, *crit]), points)
+
+
+def _campbell_point(model: Model, axis, s: float) -> tuple[np.ndarray, np.ndarray, str]:
+    """(frequencies, shapes (nf, n), gap) at one speed of ``campbell``; gap "singular" or "unstable" (then the
+    frequencies are not to be drawn) or ""."""
+    a = np.asarray(axis, float)
+    a = a / np.linalg.norm(a)
+    K, _ = _static_stiffness(model, s * a)
+    lam = np.linalg.eigvalsh(0.5 * (K + K.T))  # K is symmetric (Omega^2 - s^2 Kc + s^2 G and the like)
+    none = np.array([]), np.zeros((model.nf, 0))
+    if np.abs(lam).min() < SINGULAR * np.abs(model.eigenvalues).min():
+        return *none, "singular"
+    if lam[0] < 0:  # past the set's own s_crit (theory 9)
+        return *none, "unstable"
+    lin, shapes, V = _linearised(model, a, s)
+    mu = lin.eigenvalues
+    growing = (mu.real > UNSTABLE * np.abs(mu).max()) & (mu.real > GROWTH * np.abs(mu.imag))
+    if np.any(_modal_share(model, V[:, growing]) >= 0.5):  # the modes' own: not the rigid tumbling (middle axis)
+        return lin.frequencies, shapes, "unstable"
+    return lin.frequencies, shapes, ""

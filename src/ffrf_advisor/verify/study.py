@@ -12,17 +12,19 @@ import numpy as np
 
 from ..analysis import Analysis
 from ..report import verify_figures as fig
+from ..response import frequency_change
 from ..sim.equations import energy
-from ..sim.linearise import campbell, linearise
+from ..sim.linearise import campbell, campbell_speeds
 from ..sim.model import build_model
 from ..terms import FULL, LEVEL_SETS
+from ..units import TIME
 from . import stability
-from .runner import Verification, for_scenes, run_scene, term_sets, verify
-from .scenes import Scene, SceneOptions, default_speed, make_scenes, stable_axes
+from .runner import Verification, for_scenes, run_scene, stiffened, term_sets, verify
+from .scenes import Scene, SceneOptions, default_speed, deformation_axis, make_scenes, stable_axes
 from .workprecision import Point, pareto, work_precision
 
-CAMPBELL_POINTS = 26  # 25 intervals: no sample falls exactly on s_crit (= top / 1.2)
-CAMPBELL_SETS = ("advised", "I", "III", "IV (full)")
+CAMPBELL_POINTS = 41  # 40 intervals; a sample on an s_crit is left out (linearise.campbell), not drawn as a spike
+CAMPBELL_SETS = ("advised", "I", "II", "III", "IV (full)")
 
 
 @dataclass(frozen=True)
@@ -37,25 +39,33 @@ class Study:
     figures: tuple[str, ...]
 
 
-def campbell_data(a: Analysis, speed: float) -> dict:
-    """Frequencies of the Campbell sets against spin about each axis up to 1.2 x max(s_crit, speed) (capped at
-    1.2 x the largest finite s_crit), and each set's largest frequency error against the full set at ``speed``."""
-    s_crit = a.significance.s_crit
-    finite = s_crit[np.isfinite(s_crit)] if s_crit is not None else np.array([])
-    top = 1.2 * max(finite.max() if finite.size else 0.0, speed, 1e-9)
-    speeds = [np.linspace(0.0, top, CAMPBELL_POINTS) for _ in range(3)]
+def campbell_data(a: Analysis, speed: float, axis: int | None = None) -> dict:
+    """Branches of the Campbell sets (``sim.linearise.campbell``: tracked by mode shape, NaN where the
+    linearisation is singular or the set unstable, ``gaps`` saying which) against spin about each axis k up to
+    1.2 x the largest of ``speed`` and its finite s_crit without and with geometric stiffening (each axis its own
+    range); and each set's largest frequency error against the reference of the scenes, as
+    ``runner.frequency_error`` (the full set, with geo_stiff when the body carries G), at ``speed`` (rad per body
+    time unit) about ``axis`` (0-based; default the deformation axis, the first scene's)."""
+    sig = a.significance
+    speeds = [campbell_speeds(k, speed, (sig.s_crit, sig.s_crit_stiffened), CAMPBELL_POINTS, 1.2) for k in range(3)]
     sets = {ts.label: ts.terms for ts in term_sets(a) if ts.label in CAMPBELL_SETS}
-    by_axis = {k: {label: campbell(build_model(a.body, terms), np.eye(3)[k], speeds[k])[0]
-                   for label, terms in sets.items()} for k in range(3)}
-    axis = stable_axes(a)[0]  # the major axis: rigid spin about it is stable
-    full = linearise(build_model(a.body, FULL), np.eye(3)[axis], speed).frequencies
-    error = {}
-    for label, terms in sets.items():
-        f = linearise(build_model(a.body, terms), np.eye(3)[axis], speed).frequencies
-        n = min(len(f), len(full))
-        error[label] = float(np.max(np.abs(f[:n] - full[:n]) / full[:n])) if n else None
-    return {"speeds": speeds, "by_axis": by_axis, "s_crit": s_crit, "axis_of_error": axis, "speed": speed,
-            "frequency_error": error}
+    branches = {}  # per (terms, axis): sets with the same terms (the advised set and IV, say) computed once
+    for terms in dict.fromkeys(sets.values()):
+        for k in range(3):
+            branches[terms, k] = campbell(build_model(a.body, terms), np.eye(3)[k], speeds[k])
+    by_axis = {k: {label: branches[terms, k].frequencies for label, terms in sets.items()} for k in range(3)}
+    gaps = {k: {label: branches[terms, k].gaps.tolist() for label, terms in sets.items()} for k in range(3)}
+    axis = deformation_axis(a) if axis is None else axis
+    reference = stiffened(a, FULL)
+    error = {label: 0.0 if tuple(terms) == reference else
+             frequency_change(a.body, terms, reference, np.eye(3)[axis], speed) for label, terms in sets.items()}
+    return {"speeds": speeds, "by_axis": by_axis, "gaps": gaps, "sets": sets, "s_crit": sig.s_crit,
+            "s_crit_stiffened": sig.s_crit_stiffened, "axis_of_error": axis, "speed": speed,
+            "w_op": (a.options.situation.w_op or 0.0) * float(TIME[a.body.units.time]),
+            "reference": "full set with geo_stiff" if "geo_stiff" in reference else "full set",
+            "reference_terms": reference, "frequency_error": error,
+            "reference_label": min((label for label, terms in sets.items() if tuple(terms) == reference),
+                                   key=lambda label: label != "IV (full)", default=None)}
 
 
 def drift_curves(a: Analysis, scene: Scene) -> dict:
@@ -105,7 +115,7 @@ def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str
         told("work-precision", total)
         stab = stability_studies(a, first)
         told("stability studies", total)
-        camp = campbell_data(a, default_speed(a))
+        camp = campbell_data(a, first.speed, first.axis)
         told("Campbell diagram", total)
     figures = () if directory is None else write_figures(a, ver, points, camp, stab, first, Path(directory))
     if directory is not None:
@@ -134,6 +144,6 @@ def write_figures(a: Analysis, ver: Verification, points, camp: dict | None, sta
                       directory, "drift")
     paths += fig.save(fig.stability_chart(stab, unit, f"{a.body.name}: stability where methods fail"), directory,
                       "stability")
-    paths += fig.save(fig.campbell_chart(camp["speeds"], camp["by_axis"], camp["s_crit"], unit, unit), directory,
-                      "campbell")
+    paths += fig.save(fig.campbell_chart(camp, a.body.units.frequency, unit, f"{a.body.name}: Campbell diagram"),
+                      directory, "campbell")
     return tuple(str(p) for p in paths)

@@ -1,4 +1,5 @@
-"""A FlexibleBody from a solid mesh: assembly, free-free modes, modal stress, invariants."""
+"""FE data to a FlexibleBody: a solid mesh's assembly, free-free modes, modal stress and invariants, or modes
+read from a file (above the body and the FE toolkit it uses: docs of the layout)."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -6,15 +7,15 @@ from dataclasses import replace
 import numpy as np
 import scipy.sparse as sp
 
-from ..adequacy import static_centrifugal
-from ..body import FlexibleBody, ModalFE, Provenance
-from ..units import TMM, Units
-from .assembly import full_mass, mass_matrix, stiffness_matrix
-from .material import Material
-from .mesh import Mesh
-from .geometric import modal_geometric
-from .modal import free_free_modes, mass_normalised
-from .stress import modal_von_mises
+from .adequacy import static_centrifugal
+from .body import FlexibleBody, ModalFE, Provenance
+from .units import TMM, Units
+from .fe.assembly import full_mass, mass_matrix, stiffness_matrix
+from .fe.material import Material
+from .fe.mesh import Mesh
+from .fe.geometric import modal_geometric
+from .fe.modal import free_free_modes, mass_normalised
+from .fe.stress import modal_von_mises
 
 
 def modal_body(mesh: Mesh, material: Material, n_modes: int, name: str = "body",

@@ -82,9 +82,10 @@ def test_verify_tells_its_progress_once_per_step_up_to_the_total():
     a = analyze(read_body(SAMPLES / "conrod.ffrf.h5"), Options(situation=Situation(w_op=30.0)))
     told = []
     run_study(a, ["free-spin"], repeats=1, scene_options=SceneOptions(axis=1), quick=True,
-              progress=lambda label, total: told.append((label, total)))
-    totals = {total for _, total in told}
-    assert len(totals) == 1 and len(told) == totals.pop() and told[0][0] == "reference free-spin (axis 1)"
+              progress=lambda label, done, total: told.append((label, done, total)))
+    totals = {total for *_, total in told}
+    assert len(totals) == 1 and [done for _, done, _ in told] == list(range(1, totals.pop() + 1))
+    assert told[0][0] == "reference free-spin (axis 1)"
 
 
 def _numbers(cell: str) -> list[float]:

@@ -16,6 +16,7 @@ from ffrf_advisor.sim import equations as eq
 from ffrf_advisor.sim.integrate import Loads, Rhs, integrate
 from ffrf_advisor.sim.model import build_model, initial_state
 from ffrf_advisor.sim.output import columns, summary
+from ffrf_advisor.units import TMM
 from ffrf_advisor.terms import FULL, GROUPS, IDS, LEVEL_SETS, is_lagrangian, lagrangian_superset
 
 DIR = Path(__file__).resolve().parent.parent / "sample_bodies"
@@ -346,14 +347,25 @@ def test_simulate_command_writes_a_csv_that_parses_back(tmp_path):
     assert r.returncode == 0, r.stderr
     with open(out) as fh:
         rows = list(csv.reader(fh))
-    assert rows[0] == columns(16)
+    assert rows[0] == columns(16, TMM) and rows[0][:2] == ["t [s]", "wx [rad/s]"] and rows[0][8] == "q1 [sqrt(t) mm]"
     data = np.array(rows[1:], float)
-    assert data.shape == (11, len(columns(16)))
+    assert data.shape == (11, len(columns(16, TMM)))
     assert np.allclose(data[:, 0], np.linspace(0, 0.01, 11), rtol=0, atol=1e-12)
     assert data[0, 1:4].tolist() == [10.0, 5.0, 300.0] and data[0, 8:10].tolist() == [0.04, 0.02]
     assert np.all(np.abs(np.linalg.norm(data[:, 4:8], axis=1) - 1) < 1e-12)
     again = _cli("simulate", DIR / "beam.ffrf.h5", "--t-end", "0.01", "-o", out)
     assert again.returncode == 2 and "refusing to overwrite" in again.stderr
+    h5 = tmp_path / "beam.h5"  # the HDF5 trajectory says what it is a run of (issue 25)
+    assert _cli("simulate", DIR / "beam.ffrf.h5", "--terms", "III", "--omega0", "10,5,300", "--t-end", "0.001",
+                "-o", h5).returncode == 0
+    import h5py
+    from ffrf_advisor.io import sha256
+    with h5py.File(h5) as f:
+        assert (f.attrs["body"], f.attrs["body_sha256"], f.attrs["units"]) == ("beam", sha256(DIR / "beam.ffrf.h5"),
+                                                                              "t-mm-N-s")
+        assert f.attrs["integrator"] == "dop853" and f.attrs["terms"].split(",")[0] == "gyro0"
+        assert f.attrs["initial_state"][1:4].tolist() == [10.0, 5.0, 300.0]
+        assert f["trajectory"].attrs["columns"].split(",") == columns(16, TMM)
 
 
 @pytest.mark.parametrize("args, message", [

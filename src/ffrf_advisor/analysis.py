@@ -13,6 +13,7 @@ from .errors import FFRFError
 from .guidelines import RULE_SETS, Advice, Situation, advise, check_thresholds
 from .predict import EXCITATIONS
 from .significance import Significance, significance
+from .units import MAX_SPEED
 
 
 @dataclass(frozen=True)
@@ -39,7 +40,6 @@ def _number(name: str, value, positive: bool) -> None:
         raise FFRFError(f"{name} {value!r}: expected a finite {'positive' if positive else 'non-negative'} number")
 
 
-MAX_SPEED = 1e9  # rad/s
 
 
 def check_options(options: Options) -> None:

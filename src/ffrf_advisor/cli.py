@@ -542,14 +542,25 @@ def _verification(analysis, body: Path, folder: Optional[Path], given: Optional[
         return None
     from .report.verify_json import study_json
     from .verify.scenes import SceneOptions
-    from .verify.study import run_study
-    from .report.console import step_bar
     folder.mkdir()
     notes().print(f"verifying {body} by simulation ...", markup=False, highlight=False)
+    study, figures = _study(folder, analysis, list(SCENES), analysis.options.situation.tolerance,
+                            scene_options=SceneOptions())
+    return study_json(study, str(body), figures)
+
+
+def _study(folder: Optional[Path], *args, **kwargs):
+    """verify.study.run_study(*args, **kwargs) with a progress bar, and its figures written into ``folder``
+    when given (report.verify_figures): (study, paths of the figures)."""
+    from .report.console import step_bar
+    from .report.verify_figures import write_figures
+    from .verify.study import drift_curves, run_study
     with step_bar(notes()) as progress:
-        study = run_study(analysis, list(SCENES), analysis.options.situation.tolerance, "dop853", None, 1e-8, 3,
-                          folder, SceneOptions(), "response", progress=progress)
-    return study_json(study, str(body))
+        st = run_study(*args, progress=progress, **kwargs)
+        if folder is None:
+            return st, ()
+        drift = None if st.stability is None else drift_curves(st.analysis, st.verification.scenes[0])
+        return st, write_figures(st, drift, folder, progress)
 
 
 def _writable(target: Path, name: str | None = None):
@@ -710,6 +721,7 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
              as_json: SimulateJson = False, *, args: AnalysisArgs):
     """Simulate the free body with a term set (theory sections 5, 10); exit 3 when the integration fails."""
     import numpy as np
+    from .io import sha256
     from .io.atomic import not_an_input
     from .names import FIXED
     from .report.console import progress_bar, simulation_report
@@ -737,7 +749,8 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
         run = integrate(model, y0, setup.t_end, integrator, setup.step, rtol, atol, setup.output_step,
                         progress=progress)
     if output is not None:
-        write_trajectory(output, model, run, force)
+        write_trajectory(output, model, run, b.units, {"body": b.name, "body_file": str(body),
+                                                       "body_sha256": sha256(body)}, force)
     result = summary(model, run, str(b.units))
     if as_json:
         _print_json(result)
@@ -770,12 +783,11 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                                                     "when it is conservative."),
                    as_json: VerifyJson = False, *, args: AnalysisArgs):
     """Verify the advice by simulation: scenes, term sets, errors, cost, stability, Campbell, figures."""
-    from .report.console import step_bar, verification_report
+    from .report.console import verification_report
     from .report.verify_json import study_json
     from .sim.setup import simulation_setup
     from .verify.checks import FAILING, check_verify_options
     from .verify.scenes import SceneOptions
-    from .verify.study import run_study
     names = list(scene or SCENES)
     options = args.options()
     tolerance = options.situation.tolerance
@@ -783,10 +795,9 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
     b = args.read(body)
     result = run_analysis(b, options)
     h = None if step is None else simulation_setup(b, 1.0, step, None, integrator).step
-    with step_bar(notes()) as progress:
-        st = run_study(result, names, tolerance, integrator, h, rtol, repeats, output, SceneOptions(axis=axis),
-                       criterion, quick, jobs, progress)
-    data = study_json(st, str(body))
+    st, figures = _study(output, result, names, tolerance, integrator, h, rtol, repeats, SceneOptions(axis=axis),
+                         criterion, quick, jobs)
+    data = study_json(st, str(body), figures)
     if as_json:
         _print_json(data)
     else:

@@ -14,6 +14,7 @@ MASS = {"t": Fraction(1000), "kg": Fraction(1), "g": Fraction(1, 1000)}
 LENGTH = {"m": Fraction(1), "cm": Fraction(1, 100), "mm": Fraction(1, 1000)}
 TIME = {"s": Fraction(1), "ms": Fraction(1, 1000)}
 FORCE = {"kN": Fraction(1000), "N": Fraction(1), "mN": Fraction(1, 1000), "uN": Fraction(1, 10**6)}
+MAX_SPEED = 1e9  # rad/s: far above any structure's modes; a larger speed is a mistake in the input
 
 
 class UnitsError(ValueError):

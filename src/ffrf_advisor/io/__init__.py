@@ -1,6 +1,7 @@
 """Body file formats, reached through one registry by file suffix (meshio's layout)."""
 from __future__ import annotations
 
+import hashlib
 import os
 from dataclasses import dataclass, replace
 from typing import Callable
@@ -147,6 +148,15 @@ def flexible_modes_in_order(body: FlexibleBody, path) -> FlexibleBody:
         body = replace(body, provenance=body.provenance.with_note(
             "modes sorted by eigenvalue on reading (the file's order was " + " ".join(str(i + 1) for i in order) + ")"))
     return body
+
+
+def sha256(path: str | os.PathLike) -> str:
+    """The SHA-256 of a file, read in 1 MiB pieces (reports and trajectories name the body file by it)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
 
 
 def write_body(body: FlexibleBody, path: str | os.PathLike, fmt: str | None = None,

@@ -252,16 +252,10 @@ def progress_bar(console: Console, after_s: float = 1.0):
 
 @contextmanager
 def step_bar(console: Console, after_s: float = 1.0):
-    """A callback ``step(label, total)`` counting the finished steps of a verification (``_live_bar``; the label
-    names the step just finished), or None."""
+    """A callback ``step(label, done, total)`` for the steps of a verification and its figures (``_live_bar``;
+    the label names the step just finished), or None."""
     with _live_bar(console, after_s) as update:
-        done = 0
-
-        def step(label: str, total: int) -> None:
-            nonlocal done
-            done += 1
-            update(done, total, label)
-        yield None if update is None else step
+        yield None if update is None else (lambda label, done, total: update(done, total, label))
 
 
 def simulation_report(console: Console, s: dict, output) -> None:

@@ -11,7 +11,6 @@ Every number carries its unit; every string from a body file is plain text here 
 from __future__ import annotations
 
 import datetime as _dt
-import hashlib
 from dataclasses import dataclass, field
 from functools import partial
 from pathlib import Path
@@ -20,6 +19,7 @@ import numpy as np
 
 from .. import __version__
 from ..analysis import Analysis
+from ..io import sha256
 from ..predict import KINDS
 from ..terms import lagrangian_status
 from ..solver_settings import adams_settings
@@ -39,14 +39,6 @@ class Document:
     title: str
     sections: list[Section]
     meta: list[tuple[str, str]]
-
-
-def sha256(path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 def _num(x, unit: str = "", fmt: str = ".4g") -> str:
@@ -95,12 +87,16 @@ def options_section(a: Analysis, d: dict) -> Section:
     return Section("Options and thresholds", [("fields", fields)])
 
 
-def verdict(a: Analysis, d: dict) -> Section:
-    """Level, term set, Lagrangian or not, the evidence per rule, every warning, softening, basis, solver; ``d`` is
-    the analysis JSON (report.json_out)."""
+def verdict(a: Analysis, d: dict, study: dict | None = None) -> Section:
+    """Level, term set, operating point, the verification's verdict, Lagrangian or not, the evidence per rule,
+    every warning, softening, basis, solver; ``d`` is the analysis JSON (report.json_out), ``study`` the verify
+    JSON when the report carries a verification."""
     sig = d["significance"]
-    fields = [("level", d["level"]), ("terms", ", ".join(d["terms"])), ("operating point", d["operating_point"]),
-              ("decided by", d["decided_by"]), ("Lagrangian", lagrangian_status(d["terms"]))]
+    checked = ("not run (report --verify, or --verification FILE)" if study is None else
+               f"{study['verdict']['verdict']}: {study['verdict']['text']}")
+    fields = [("level", d["level"]), ("advised set", ", ".join(d["terms"])), ("operating point", d["operating_point"]),
+              ("decided by", d["decided_by"]), ("verification", checked),
+              ("Lagrangian", lagrangian_status(d["terms"]))]
     if lagrangian_status(d["terms"]) == "not Lagrangian":
         sup = d["lagrangian_superset"]
         fields.append(("consistent alternative", "none (geo_stiff lies outside the kinetic energy)" if sup is None
@@ -116,6 +112,9 @@ def verdict(a: Analysis, d: dict) -> Section:
     blocks = [("fields", fields)]
     if d["candidates"]:
         tol = d["situation"]["tolerance"]
+        blocks.append(("items", [f"Rows I, II, III and IV are the paper's level sets; the advised set is the cheapest "
+                                 f"set whose predicted errors stay within {tol:g} / 2, named by the level its terms "
+                                 "reach (docs/advice.md)."]))
         blocks.append(("table", (("term set (docs/advice.md)", "level", "rhs cost", *KINDS, f"within {tol:g} / 2"),
                                  [(c["label"], c["level"], f"{c['cost']:.2f}", *(_num(c["errors"][k]) for k in KINDS),
                                    "yes" if c["adequate"] else "no")
@@ -202,7 +201,7 @@ def verification_section(study: dict) -> Section:
 def body_sections(a: Analysis, source: str, study: dict | None = None, figures: bool = True) -> list[Section]:
     """One body's part; ``figures=False`` in a set, whose comparison already draws every body's series."""
     d = analysis_json(a, source)
-    sections = [verdict(a, d), header(a, source), options_section(a, d), paper_tables([a])]
+    sections = [verdict(a, d, study), header(a, source), options_section(a, d), paper_tables([a])]
     sections += [paper_figures([a]), pictures(a)] if figures else [pictures(a)]
     if study is not None:
         sections.append(verification_section(study))

@@ -74,9 +74,13 @@ def modes_figure(body: FlexibleBody, q: np.ndarray | None = None, modes: int = 3
         size = np.linalg.norm(u, axis=1)
         true = size.max() / mesh.largest_dimension()
         scale = DEFLECTION_SHOWN / max(true, 1e-300)
-        _draw(fig.add_subplot(1, n + 1, p + 2, projection="3d"), mesh.points + scale * u, polys, size,
+        ax = fig.add_subplot(1, n + 1, p + 2, projection="3d")
+        _draw(ax, mesh.points + scale * u, polys, size,
               f"mode {p + 1}: {body.frequencies_hz[p]:.4g} {body.units.frequency}"
               f"{'' if q is None else ' at q_max'}, x{scale:.3g}\n(true deflection {true:.2g} of size)")
+        colours = plt.cm.ScalarMappable(plt.Normalize(0.0, size.max()), plt.cm.viridis)
+        fig.colorbar(colours, ax=ax, orientation="horizontal", shrink=0.7, pad=0.02).set_label(
+            f"true deflection |u| [{body.units.length}]", fontsize=7)
     fig.tight_layout()
     return fig
 

@@ -11,6 +11,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..io.atomic import atomic_path  # noqa: E402
@@ -31,8 +32,10 @@ def save(fig, directory: Path, stem: str) -> list[Path]:
     return paths
 
 
-def trajectories(ref_run, runs: dict, sigma, time_unit: str, stress_unit: str, title: str):
-    """Spin rate |w|, first modal coordinate and recovered stress of the reference and each set against time."""
+def trajectories(ref_run, runs: dict, sigma, units, title: str):
+    """Spin rate |w|, first modal coordinate and recovered stress of the reference and each set against time, in
+    the body's ``units``; plain tick labels (no offset like "1e-5 + 1")."""
+    time_unit, stress_unit = units.time, units.stress
     fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
     nf = (ref_run.y.shape[1] - N_ROT) // 2
     weights = np.ones(nf) if sigma is None else np.asarray(sigma)
@@ -45,8 +48,11 @@ def trajectories(ref_run, runs: dict, sigma, time_unit: str, stress_unit: str, t
         axes[1].plot(run.t, y[:, N_ROT], label=label, **style)
         axes[2].plot(run.t, np.abs(y[:, N_ROT:N_ROT + nf]) @ weights, label=label, **style)
     axes[0].set_ylabel(f"|w| [rad/{time_unit}]")
-    axes[1].set_ylabel("q1 [body units]")
-    axes[2].set_ylabel("sum sigma_p |q_p|" + (f" [{stress_unit}]" if sigma is not None else " [body units]"))
+    axes[1].set_ylabel(f"q1 [sqrt({units.mass}) {units.length}]")
+    axes[2].set_ylabel("sum sigma_p |q_p|" + (f" [{stress_unit}]" if sigma is not None else
+                                               f" [sqrt({units.mass}) {units.length}]"))
+    for ax in axes:
+        ax.ticklabel_format(axis="y", useOffset=False)
     axes[2].set_xlabel(f"t [{time_unit}]")
     axes[0].set_title(title)
     axes[0].legend(fontsize=7, ncol=3)
@@ -54,8 +60,11 @@ def trajectories(ref_run, runs: dict, sigma, time_unit: str, stress_unit: str, t
 
 
 def work_precision_chart(points, front, title: str):
-    """log error against log wall time, one line per (set, integrator); Pareto front and failed runs marked."""
-    fig, ax = plt.subplots(figsize=(8, 6))
+    """log error against log wall time, one line per (set, integrator): the set by colour, the integrator by
+    marker, each explained once in a legend beside the axes; the Pareto front and failed runs (x, on the red
+    line) marked."""
+    from matplotlib.lines import Line2D
+    fig, ax = plt.subplots(figsize=(9, 6))
     finite = [p.error for p in points if not p.failed and p.error > 0]
     top = 10 * max(finite) if finite else 1.0
     floor = 1e-16
@@ -63,23 +72,30 @@ def work_precision_chart(points, front, title: str):
     for p in points:
         groups.setdefault((p.set, p.integrator), []).append(p)
     markers = {"dop853": "o", "rk4": "s", "midpoint": "^"}
+    sets = list(dict.fromkeys(label for label, _ in groups))
+    colour = {label: plt.cm.tab10(k % 10) for k, label in enumerate(sets)}
     for (label, integ), pts in groups.items():
         ok = sorted((p for p in pts if not p.failed), key=lambda p: p.wall_s)
-        line, = ax.plot([p.wall_s for p in ok], [max(p.error, floor) for p in ok], marker=markers.get(integ, "o"),
-                        ms=4, lw=1, label=f"{label}, {integ}")
+        ax.plot([p.wall_s for p in ok], [max(p.error, floor) for p in ok], marker=markers.get(integ, "o"), ms=4,
+                lw=1, color=colour[label])
         bad = [p for p in pts if p.failed]
         if bad:
-            ax.plot([p.wall_s for p in bad], [top] * len(bad), "x", color=line.get_color(), ms=8)
-    ax.plot([p.wall_s for p in front], [max(p.error, floor) for p in front], "-", color="k", lw=3, alpha=0.25,
-            label="Pareto front")
+            ax.plot([p.wall_s for p in bad], [top] * len(bad), "x", color=colour[label], ms=8)
+    ax.plot([p.wall_s for p in front], [max(p.error, floor) for p in front], "-", color="k", lw=3, alpha=0.25)
     ax.axhline(top, color="r", lw=0.5, ls=":")
-    ax.text(ax.get_xlim()[0] if points else 0, top, " failed (x)", color="r", va="bottom", fontsize=7)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("wall time [s] (minimum over repeats, serial)")
     ax.set_ylabel("worst relative error against the reference [-]")
     ax.set_title(title)
-    ax.legend(fontsize=6, ncol=2)
+    integrators = list(dict.fromkeys(integ for _, integ in groups))
+    keys = ([Line2D([], [], color=colour[label], lw=2, label=label) for label in sets]
+            + [Line2D([], [], color="k", marker=markers.get(i, "o"), ls="none", label=i) for i in integrators]
+            + [Line2D([], [], color="k", lw=3, alpha=0.25, label="Pareto front (cheapest per error)"),
+               Line2D([], [], color="r", marker="x", ls=":", lw=0.5, label="failed run (drawn on this line)")])
+    ax.legend(handles=keys, fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), title="term set (colour), "
+              "integrator (marker)", title_fontsize=8)
+    fig.tight_layout()
     return fig
 
 
@@ -221,6 +237,8 @@ def stability_chart(stab: dict, time_unit: str, title: str):
         left.plot(steps, [max(r["energy_drift"] or 0.0, 1e-17) for r in rows], marker="o", label=label)
     left.set_xscale("log")
     left.set_yscale("log")
+    left.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # labels of minor ticks overlap
+    left.set_xticks(steps, [f"{h:.2g}" for h in steps])
     left.set_xlabel(f"RK4 step [{time_unit}]")
     left.set_ylabel("energy drift |E - E0| / |E0| [-]")
     left.legend(fontsize=7)
@@ -242,3 +260,31 @@ def stability_chart(stab: dict, time_unit: str, title: str):
     right.set_xlabel("measured / predicted [-]")
     fig.suptitle(title)
     return fig
+
+
+def write_figures(st, drift: dict | None, directory: Path, progress=None) -> tuple[str, ...]:
+    """The figures of a verification (a ``verify.study.Study``) in ``directory``, each as PNG and SVG:
+    trajectories_<scene>_axis<k>, and unless the studies were left out (quick) work_precision, drift (the
+    curves of ``verify.study.drift_curves``), stability and campbell. ``progress(label, done, total)`` is told
+    of each figure written."""
+    from ..verify.workprecision import pareto
+    a, ver, directory = st.analysis, st.verification, Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    unit, name, scene = a.body.units.time, a.body.name, ver.scenes[0]
+    drawings = [(f"trajectories_{sc.name}_axis{sc.axis + 1}", lambda sc=sc: trajectories(
+        ver.references[sc.label].run, {r.set.label: r.run for r in ver.results if r.scene == sc.label},
+        a.body.sigma_max, a.body.units, f"{name}: {sc.label}")) for sc in ver.scenes]
+    if st.work_precision is not None:
+        drawings += [
+            ("work_precision", lambda: work_precision_chart(
+                st.work_precision, pareto(st.work_precision), f"{name}: {scene.label}, work-precision (timings serial)")),
+            ("drift", lambda: drift_chart(drift, unit, f"{name}: {scene.label}, energy drift")),
+            ("stability", lambda: stability_chart(st.stability, unit, f"{name}: stability where methods fail")),
+            ("campbell", lambda: campbell_chart(st.campbell, a.body.units.frequency, unit,
+                                                f"{name}: Campbell diagram"))]
+    paths = []
+    for k, (stem, draw) in enumerate(drawings):
+        paths += save(draw(), directory, stem)
+        if progress is not None:
+            progress(f"figure {stem}", k + 1, len(drawings))
+    return tuple(str(p) for p in paths)

@@ -75,8 +75,9 @@ def _campbell(c: dict) -> dict:
             "gaps": {str(k + 1): v for k, v in c["gaps"].items()}}
 
 
-def study_json(st: Study, source: str) -> dict:
-    """The documented JSON of ``verify --json`` (src/ffrf_advisor/schemas/verify.json)."""
+def study_json(st: Study, source: str, figures: tuple[str, ...] = ()) -> dict:
+    """The documented JSON of ``verify --json`` (src/ffrf_advisor/schemas/verify.json), with the paths of the
+    figures written (report.verify_figures.write_figures)."""
     a, ver = st.analysis, st.verification
     per_s = float(TIME[a.body.units.time])
     return _clean({
@@ -96,5 +97,5 @@ def study_json(st: Study, source: str) -> dict:
                     for r in ver.results],
         "verdict": _verdict(ver.verdict),
         **_studies(st),
-        "figures": list(st.figures),
+        "figures": list(figures),
     })

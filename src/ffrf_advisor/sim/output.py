@@ -8,6 +8,7 @@ import h5py
 import numpy as np
 
 from ..errors import FFRFError
+from ..units import Units
 from ..io.atomic import atomic_path, check_target
 from ..io.guard import run_writer
 from .equations import angular_momentum, energy
@@ -17,10 +18,13 @@ from .model import N_ROT, Model
 SUMMARY_SCHEMA_VERSION = 1
 
 
-def columns(nf: int) -> list[str]:
-    """``t, wx, wy, wz, p0..p3, q1..qn, qd1..qdn, energy, H``."""
-    return (["t", "wx", "wy", "wz", "p0", "p1", "p2", "p3"] + [f"q{i + 1}" for i in range(nf)]
-            + [f"qd{i + 1}" for i in range(nf)] + ["energy", "H"])
+def columns(nf: int, units: Units) -> list[str]:
+    """``t, wx, wy, wz, p0..p3, q1..qn, qd1..qdn, energy, H``, each with its unit in the body's units: the
+    modal coordinates of mass-normalised modes in sqrt(mass) length."""
+    t, q = units.time, f"sqrt({units.mass}) {units.length}"
+    return ([f"t [{t}]"] + [f"w{c} [rad/{t}]" for c in "xyz"] + [f"p{i} [-]" for i in range(4)]
+            + [f"q{i + 1} [{q}]" for i in range(nf)] + [f"qd{i + 1} [{q}/{t}]" for i in range(nf)]
+            + [f"energy [{units.force} {units.length}]", f"H [{units.mass} {units.length}^2/{t}]"])
 
 
 def table(model: Model, run: Run) -> np.ndarray:
@@ -37,11 +41,13 @@ def check_output(path: Path, force: bool = False) -> None:
     check_target(path, force)
 
 
-def write_trajectory(path: Path, model: Model, run: Run, force: bool = False) -> None:
-    """``.csv`` (header row) or ``.h5`` (dataset ``trajectory`` with attribute ``columns``), atomically."""
+def write_trajectory(path: Path, model: Model, run: Run, units: Units, about: dict, force: bool = False) -> None:
+    """``.csv`` (header row with units) or ``.h5`` (dataset ``trajectory`` with attribute ``columns``; file
+    attributes: ``about`` (the body's name, file and SHA-256), units, terms, integrator, step and the initial
+    state, the first row), atomically."""
     check_output(path, force)
     suffix = Path(path).suffix.lower()
-    data, names = table(model, run), columns(model.nf)
+    data, names = table(model, run), columns(model.nf, units)
     with atomic_path(path, overwrite=force) as tmp:
         if suffix == ".csv":
             with open(tmp, "w", newline="") as fh:
@@ -49,14 +55,18 @@ def write_trajectory(path: Path, model: Model, run: Run, force: bool = False) ->
                 writer.writerow(names)
                 writer.writerows([[repr(float(x)) for x in row] for row in data])
         else:  # the HDF5 library in a child: a failed write makes it crash on cleanup (guard.run_writer)
-            run_writer(path, _write_h5, tmp, data, names, model.terms)
+            attrs = {**about, "units": str(units), "terms": ",".join(model.terms), "integrator": run.method,
+                     "step": np.nan if run.step is None else float(run.step)}
+            run_writer(path, _write_h5, tmp, data, names, attrs)
 
 
-def _write_h5(tmp: Path, data: np.ndarray, names: list[str], terms) -> None:
+def _write_h5(tmp: Path, data: np.ndarray, names: list[str], attrs: dict) -> None:
     with h5py.File(tmp, "w") as fh:
         ds = fh.create_dataset("trajectory", data=data)
         ds.attrs["columns"] = ",".join(names)
-        fh.attrs["terms"] = ",".join(terms)
+        fh.attrs.update(attrs)
+        if len(data):
+            fh.attrs["initial_state"] = data[0]
 
 
 def _drift(values: np.ndarray) -> float | None:

@@ -7,10 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..amplitudes import AmplitudeOptions, check_size, q_max
-from ..analysis import MAX_SPEED
 from ..body import FlexibleBody
 from ..errors import FFRFError
-from ..units import TIME
+from ..units import MAX_SPEED, TIME
 from .integrate import FIXED, INTEGRATORS
 
 

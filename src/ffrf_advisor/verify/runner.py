@@ -220,7 +220,8 @@ def verify(a: Analysis, scenes, tolerance: float = 0.01, integrator: str = "dop8
            progress=None) -> Verification:
     """Every term set through every scene against the reference, and the verdict on the advice by ``criterion``;
     the references, then the sets' runs, on ``jobs`` local processes (each run's wall time is the minimum over
-    its ``repeats``, taken serially in its worker); ``progress(label, total)`` is told of each finished run."""
+    its ``repeats``, taken serially in its worker); ``progress(label, done, total)`` is told of each finished
+    run."""
     scenes, sets = tuple(scenes), term_sets(a)
     refs, rows = _runs(_Work(a, scenes, sets, integrator, step, rtol, repeats), jobs, progress or _silent)
     results = []
@@ -259,25 +260,25 @@ def _runs(work: _Work, jobs: int, progress) -> tuple[dict, list[SetResult]]:
     pairs = [(i, j) for i in range(len(work.scenes)) for j in range(len(work.sets))]
     try:
         with mapper(jobs) as map_:
-            refs = _told(map_(_reference_run, range(len(work.scenes))), progress, n,
+            refs = _told(map_(_reference_run, range(len(work.scenes))), progress, 0, n,
                          lambda i: f"reference {work.scenes[i].label}")
-            rows = _told(map_(_set_run, pairs, [refs[i] for i, _ in pairs]), progress, n,
+            rows = _told(map_(_set_run, pairs, [refs[i] for i, _ in pairs]), progress, len(refs), n,
                          lambda k: f"{work.scenes[pairs[k][0]].label}: {work.sets[pairs[k][1]].label}")
     finally:
         _work = None
     return {sc.label: ref for sc, ref in zip(work.scenes, refs)}, rows
 
 
-def _told(results, progress, total: int, label) -> list:
-    """The results, ``progress(label(k), total)`` after the k-th arrives."""
+def _told(results, progress, before: int, total: int, label) -> list:
+    """The results, ``progress(label(k), before + k + 1, total)`` after the k-th arrives."""
     out = []
     for k, r in enumerate(results):
         out.append(r)
-        progress(label(k), total)
+        progress(label(k), before + k + 1, total)
     return out
 
 
-def _silent(label: str, total: int) -> None:
+def _silent(label: str, done: int, total: int) -> None:
     """No progress shown."""
 
 

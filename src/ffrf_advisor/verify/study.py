@@ -1,17 +1,16 @@
-"""The whole verification of one body: scenes, term sets, work-precision, stability, Campbell, figures.
+"""The whole verification of one body: scenes, term sets, work-precision, stability, Campbell (data only).
 
 ``ffrf-advisor verify`` calls ``run_study``; ``report.verify_json`` turns
-the Study into the JSON of src/ffrf_advisor/schemas/verify.json.
+the Study into the JSON of src/ffrf_advisor/schemas/verify.json and
+``report.verify_figures`` draws it.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from ..analysis import Analysis
-from ..report import verify_figures as fig
 from ..response import frequency_change
 from ..sim.equations import energy
 from ..sim.linearise import campbell, campbell_speeds
@@ -21,7 +20,7 @@ from ..units import TIME
 from . import stability
 from .runner import Verification, for_scenes, run_scene, stiffened, term_sets, verify
 from .scenes import Scene, SceneOptions, default_speed, deformation_axis, make_scenes, stable_axes
-from .workprecision import Point, pareto, work_precision
+from .workprecision import Point, work_precision
 
 CAMPBELL_POINTS = 41  # 40 intervals; a sample on an s_crit is left out (linearise.campbell), not drawn as a spike
 CAMPBELL_SETS = ("advised", "I", "II", "III", "IV (full)")
@@ -36,7 +35,6 @@ class Study:
     work_precision: list[Point] | None
     stability: dict | None
     campbell: dict | None
-    figures: tuple[str, ...]
 
 
 def campbell_data(a: Analysis, speed: float, axis: int | None = None) -> dict:
@@ -95,55 +93,27 @@ def stability_studies(a: Analysis, scene: Scene) -> dict:
 
 
 def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str = "dop853",
-              step: float | None = None, rtol: float = 1e-8, repeats: int = 3, directory: Path | None = None,
+              step: float | None = None, rtol: float = 1e-8, repeats: int = 3,
               scene_options: SceneOptions = SceneOptions(), criterion: str = "response", quick: bool = False,
               jobs: int = 1, progress=None) -> Study:
-    """Everything ``verify`` reports; figures go to ``directory`` when given. The scenes and the verdict cover every
-    axis of ``scenes.scene_axes`` (their runs on ``jobs`` local processes); work-precision, stability and drift
-    use the first scene, Campbell all axes. ``quick``: the scenes and the verdict only (and their trajectory
-    figures). ``progress(label, total)`` is told of each finished run, study and the figures."""
+    """Everything ``verify`` reports. The scenes and the verdict cover every axis of ``scenes.scene_axes`` (their
+    runs on ``jobs`` local processes); work-precision, stability and drift use the first scene, Campbell all
+    axes. ``quick``: the scenes and the verdict only. ``progress(label, done, total)`` is told of each finished
+    run and study."""
     scenes = make_scenes(scene_names, a, scene_options)
     a = for_scenes(a, scenes)
-    total = len(scenes) * (1 + len(term_sets(a))) + (0 if quick else 3) + (directory is not None)
-    told = (lambda label, _: progress(label, total)) if progress else (lambda label, _: None)
+    runs = len(scenes) * (1 + len(term_sets(a)))
+    total = runs + (0 if quick else 3)
+    told = (lambda label, done, _: progress(label, done, total)) if progress else (lambda *_: None)
     ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion, jobs, told)
     first = scenes[0]
     points = stab = camp = None
     if not quick:
         points = work_precision(a, first, ver.references[first.label],
                                 tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)
-        told("work-precision", total)
+        told("work-precision", runs + 1, total)
         stab = stability_studies(a, first)
-        told("stability studies", total)
+        told("stability studies", runs + 2, total)
         camp = campbell_data(a, first.speed, first.axis)
-        told("Campbell diagram", total)
-    figures = () if directory is None else write_figures(a, ver, points, camp, stab, first, Path(directory))
-    if directory is not None:
-        told("figures", total)
-    return Study(a, ver, points, stab, camp, figures)
-
-
-def write_figures(a: Analysis, ver: Verification, points, camp: dict | None, stab: dict | None, scene: Scene,
-                  directory: Path) -> tuple[str, ...]:
-    """trajectories_<scene>_axis<k>, and unless the studies were left out (quick) work_precision, drift,
-    stability and campbell, each as PNG and SVG."""
-    directory.mkdir(parents=True, exist_ok=True)
-    unit = a.body.units.time
-    paths = []
-    for sc in ver.scenes:
-        model_runs = {r.set.label: r.run for r in ver.results if r.scene == sc.label}
-        paths += fig.save(fig.trajectories(ver.references[sc.label].run, model_runs, a.body.sigma_max, unit,
-                                           a.body.units.stress, f"{a.body.name}: {sc.label}"),
-                          directory, f"trajectories_{sc.name}_axis{sc.axis + 1}")
-    if points is None:
-        return tuple(str(p) for p in paths)
-    paths += fig.save(fig.work_precision_chart(points, pareto(points),
-                                               f"{a.body.name}: {scene.label}, work-precision (timings serial)"),
-                      directory, "work_precision")
-    paths += fig.save(fig.drift_chart(drift_curves(a, scene), unit, f"{a.body.name}: {scene.label}, energy drift"),
-                      directory, "drift")
-    paths += fig.save(fig.stability_chart(stab, unit, f"{a.body.name}: stability where methods fail"), directory,
-                      "stability")
-    paths += fig.save(fig.campbell_chart(camp, a.body.units.frequency, unit, f"{a.body.name}: Campbell diagram"),
-                      directory, "campbell")
-    return tuple(str(p) for p in paths)
+        told("Campbell diagram", runs + 3, total)
+    return Study(a, ver, points, stab, camp)

@@ -26,7 +26,7 @@ import scipy.sparse as sp
 from .body import SYM_PAIRS, StaticCentrifugal
 from .errors import FFRFError
 from .fe.assembly import full_mass, stiffness_matrix
-from .fe.modal import rigid_modes
+from .fe.modal import rigid_modes, spd_solver
 from .fe.stress import nodal_stress, von_mises
 from .significance import f_cf1
 from .units import TIME
@@ -72,10 +72,9 @@ def static_deflections(X: np.ndarray, Ms, K, F: np.ndarray) -> np.ndarray:
     n3 = K.shape[0]
     free = np.ones(n3, bool)
     free[support_dofs(X)] = False
-    import scipy.sparse.linalg as spla  # scipy.linalg: ~0.1 s of import the analysis of a cached body does without
-    lu = spla.splu(sp.csc_array(sp.csr_array(K)[free][:, free]), permc_spec="COLAMD")
+    solve = spd_solver(sp.csr_array(K)[free][:, free])
     U = np.zeros_like(F)
-    U[free] = lu.solve(np.ascontiguousarray(F[free]))
+    U[free] = solve(np.ascontiguousarray(F[free]))
     M, R = full_mass(Ms), rigid_modes(X)
     return U - R @ np.linalg.solve(R.T @ (M @ R), R.T @ (M @ U))
 

@@ -43,7 +43,8 @@ def free_free_modes(K: sp.sparray, Ms: sp.sparray, X: np.ndarray, n_flex: int,
         shift = -1e-3 * _rayleigh_scale(K, M)
     v0 = np.cos(np.arange(n3) * 0.7548776662466927)  # deterministic start: reproducible output
     import scipy.sparse.linalg as spla  # scipy.linalg: ~0.1 s of import the analysis of a cached body does without
-    lam, vec = spla.eigsh(K, k=k, M=M, sigma=shift, which="LM", v0=v0, tol=0.0)
+    shifted = spla.LinearOperator(K.shape, matvec=spd_solver(K - shift * M), dtype=float)  # (K - shift M)^-1
+    lam, vec = spla.eigsh(K, k=k, M=M, sigma=shift, which="LM", v0=v0, tol=0.0, OPinv=shifted)
     order = np.argsort(lam)
     lam, vec = lam[order], vec[:, order]
     rigid = rigid_modes(X - X.mean(axis=0))
@@ -55,6 +56,15 @@ def free_free_modes(K: sp.sparray, Ms: sp.sparray, X: np.ndarray, n_flex: int,
             f"{', '.join(f'{x:.1e}' for x in off_rigid[:N_RIGID + 1])}: the body is not free-free or not connected")
     Phi = mass_normalised(without_rigid(vec[:, N_RIGID:], rigid, M), M, X)
     return ModalResult(lam[N_RIGID:], Phi.reshape(n3 // 3, 3, n_flex), lam[:N_RIGID])
+
+
+def spd_solver(A: sp.sparray):
+    """``b -> A^-1 b`` for a symmetric positive definite sparse A (a stiffness shifted by a mass, or supported):
+    SuperLU in symmetric mode, minimum degree on A^T + A with diagonal pivots. The carbody's 68,682 DOFs: 5.4 s
+    and 51 M factor entries, against 130 s and 349 M with COLAMD and partial pivoting (scipy's default)."""
+    import scipy.sparse.linalg as spla
+    return spla.splu(sp.csc_array(A), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                     options={"SymmetricMode": True}).solve
 
 
 def rigid_modes(X: np.ndarray) -> np.ndarray:

@@ -328,3 +328,21 @@ def test_a_sweep_on_a_dask_cluster_gives_the_errors_of_the_local_run(tmp_path):
                     for k, e in errs.items():
                         other = b["errors"][label][scene][k]
                         assert (e is None and other is None) or abs(e - other) <= 1e-12 * max(1.0, abs(e))
+
+
+def test_trajectory_plots_say_below_round_off_instead_of_drawing_it():
+    """Issue 25: modal coordinates of 1e-19 (a scene at 1 rad/s) are said to be round-off, not drawn; those of
+    1e-3 of q_max,1 are drawn."""
+    from types import SimpleNamespace
+
+    from ffrf_advisor.report.verify_figures import trajectories
+    from ffrf_advisor.sim.model import N_ROT
+    from ffrf_advisor.units import TMM
+    t = np.linspace(0.0, 1.0, 5)
+    for q, said in ((1e-19, True), (1e-3, False)):
+        y = np.zeros((5, N_ROT + 4))
+        y[:, 0], y[:, 6], y[:, N_ROT] = 1.0, 1.0, q * np.sin(t)
+        fig = trajectories(SimpleNamespace(t=t, y=y), {"I": SimpleNamespace(t=t, y=y)}, None, TMM, "x", 0.5)
+        texts = [x.get_text() for ax in fig.axes[1:] for x in ax.texts]
+        assert bool(texts) is said and all("below round-off" in x for x in texts)
+        assert (len(fig.axes[1].lines) == 0) is said

@@ -32,9 +32,13 @@ def save(fig, directory: Path, stem: str) -> list[Path]:
     return paths
 
 
-def trajectories(ref_run, runs: dict, sigma, units, title: str):
+ROUND_OFF = 1e-12  # a modal coordinate below this share of q_max,1 is round-off: said, not drawn
+
+
+def trajectories(ref_run, runs: dict, sigma, units, title: str, q_scale: float):
     """Spin rate |w|, first modal coordinate and recovered stress of the reference and each set against time, in
-    the body's ``units``; plain tick labels (no offset like "1e-5 + 1")."""
+    the body's ``units``; plain tick labels (no offset like "1e-5 + 1"); the modal panels say "below round-off"
+    where every run's coordinates stay below ROUND_OFF x ``q_scale`` (q_max,1)."""
     time_unit, stress_unit = units.time, units.stress
     fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
     nf = (ref_run.y.shape[1] - N_ROT) // 2
@@ -53,6 +57,14 @@ def trajectories(ref_run, runs: dict, sigma, units, title: str):
                                                f" [sqrt({units.mass}) {units.length}]"))
     for ax in axes:
         ax.ticklabel_format(axis="y", useOffset=False)
+    largest = max((np.abs(r.y[:, N_ROT:N_ROT + nf]).max() for r in [ref_run, *runs.values()] if len(r.t)),
+                  default=0.0)
+    if largest < ROUND_OFF * q_scale:
+        for ax in axes[1:]:
+            ax.cla()
+            ax.text(0.5, 0.5, f"modal coordinates below round-off: at most {largest:.1e}, under {ROUND_OFF:g} of "
+                    f"q_max,1 = {q_scale:.3g}", transform=ax.transAxes, ha="center", va="center", fontsize=9)
+            ax.set_yticks([])
     axes[2].set_xlabel(f"t [{time_unit}]")
     axes[0].set_title(title)
     axes[0].legend(fontsize=7, ncol=3)
@@ -273,11 +285,11 @@ def write_figures(st, drift: dict | None, directory: Path, progress=None) -> tup
     unit, name, scene = a.body.units.time, a.body.name, ver.scenes[0]
     drawings = [(f"trajectories_{sc.name}_axis{sc.axis + 1}", lambda sc=sc: trajectories(
         ver.references[sc.label].run, {r.set.label: r.run for r in ver.results if r.scene == sc.label},
-        a.body.sigma_max, a.body.units, f"{name}: {sc.label}")) for sc in ver.scenes]
+        a.body.sigma_max, a.body.units, f"{name}: {sc.label}", float(a.amplitudes.q_max[0]))) for sc in ver.scenes]
     if st.work_precision is not None:
         drawings += [
-            ("work_precision", lambda: work_precision_chart(
-                st.work_precision, pareto(st.work_precision), f"{name}: {scene.label}, work-precision (timings serial)")),
+            ("work_precision", lambda: work_precision_chart(st.work_precision, pareto(st.work_precision),
+                                                            f"{name}: {scene.label}, work-precision (serial)")),
             ("drift", lambda: drift_chart(drift, unit, f"{name}: {scene.label}, energy drift")),
             ("stability", lambda: stability_chart(st.stability, unit, f"{name}: stability where methods fail")),
             ("campbell", lambda: campbell_chart(st.campbell, a.body.units.frequency, unit,

@@ -116,3 +116,11 @@ def test_every_value_stands_under_its_label_at_80_and_120_columns(columns):
     assert [float(r["q_max [sqrt(t) mm]"]) for r in rows] == pytest.approx(amp["q_max"], rel=5e-5)
     assert [r["governs"] for r in rows] == amp["governs"]
     assert [float(r["sigma / sigma_allow"]) for r in rows] == pytest.approx(amp["stress_utilisation"], rel=5e-3)
+
+
+def test_gate_ends_with_a_summary_line_and_names_the_deciding_rule():
+    bodies = [str(SAMPLES / "beam.ffrf.h5"), str(SAMPLES / "conrod.ffrf.h5")]
+    result = runner.invoke(app, ["gate", *bodies, "--max-level", "I", "--speed", "300rad/s"], env={"COLUMNS": "200"})
+    lines = result.stdout.splitlines()
+    assert result.exit_code == 1 and lines[-1] == "gate FAILED: 2 bodies, 0 within level I, 2 above it, 0 unreadable"
+    assert sum(line.strip().startswith("decided by: ") for line in lines) == 2 and "warning" not in result.stdout

@@ -444,10 +444,10 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
          jobs: int = typer.Option(1, "--jobs", "-j", min=1, help="Bodies analysed in parallel."),
          as_json: GateJson = False, *, args: AnalysisArgs):
     """CI gate: exit 0 when every body's level is within --max-level, 1 when one is not, 2 on bad input."""
-    from .gate import check_junit_target, gate_summary, run_gate, write_junit
+    from .gate import check_junit_target, run_gate, write_junit
     from .guidelines import LEVELS, operating_point
     from .io.atomic import atomic_path
-    from .report.console import shown
+    from .report.console import gate_report
     from .report.json_out import SCHEMA_VERSION
     max_level = max_level.strip().upper()
     if max_level not in LEVELS:
@@ -465,18 +465,7 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
     if as_json:
         _print_json({"schema_version": SCHEMA_VERSION, "max_level": max_level, "bodies": results})
     else:
-        out().print(f"operating point: {operating_point(options.situation)}", highlight=False)
-        for r in results:
-            status = "ERROR" if r["error"] else ("ok" if r["within"] else "EXCEEDS")
-            text = r["error"] or f"{r['file']}: level {r['level']} (max {max_level})"
-            if r["error"] and not text.startswith(r["file"]):
-                text = f"{r['file']}: {text}"  # errors that name no file get it once
-            out().print(f"{status:8s} {shown(text, 2000)}", highlight=False)
-            if r["analysis"] is not None:
-                out().print(f"{'':8s} decided by: {r['analysis']['decided_by']}", highlight=False)
-            for w in r["warnings"]:
-                err().print(f"{shown(r['file'])}: warning: {shown(w, 2000)}", highlight=False)
-        out().print(gate_summary(results, max_level), highlight=False)
+        gate_report(out(), err(), results, max_level, operating_point(options.situation))
     if any(r["error"] for r in results):
         raise typer.Exit(EXIT_BAD_INPUT)
     if not all(r["within"] for r in results):
@@ -675,6 +664,7 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
              solver: str = typer.Option("adams", "--solver", help=f"Solver: {', '.join(SOLVERS)}."),
              as_json: SettingsJson = False, *, args: AnalysisArgs):
     """Solver settings for the advised term set (Adams: coupling option and INVARIANTS= pattern)."""
+    from .report.console import settings_report
     from .solver_settings import adams_settings
     if solver not in SOLVERS:
         raise FFRFError(f"--solver {solver!r}: expected one of {', '.join(SOLVERS)}")
@@ -685,17 +675,7 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
     if as_json:
         _print_json(data)
         return
-    for w in data["warnings"]:
-        err().print(f"warning: {w}", highlight=False)
-    out().print(f"level {data['level']}: terms {', '.join(data['terms'])}")
-    out().print(f"Adams: [bold]{data['formulation']}[/bold]   INVARIANTS={data['invariants']}")
-    out().print(f"  {data['statement']}")
-    for term, invs in data["needed_invariants"].items():
-        out().print(f"  {term:13s} " + (f"needs {', '.join(invs)}" if invs else
-                                        "no invariant carries it: the solver needs its own stress stiffening "
-                                        "(theory 9)"), highlight=False)
-    out().print(f"source: {data['source']}", highlight=False)
-    out().print(f"note: {data['pattern_note']}", highlight=False)
+    settings_report(out(), err(), data)
 
 
 Terms = Annotated[str, typer.Option("--terms", help="I, II, III, IV, full, advised, or a comma list of term ids.")]

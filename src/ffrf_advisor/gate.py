@@ -54,16 +54,6 @@ def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, cons
         return results
 
 
-def gate_summary(results: list[dict], max_level: str) -> str:
-    """One line: how many bodies are within ``max_level``, exceed it, or could not be read."""
-    errors = sum(1 for r in results if r["error"])
-    within = sum(1 for r in results if not r["error"] and r["within"])
-    exceeding = len(results) - errors - within
-    verdict = "FAILED" if errors or exceeding else "passed"
-    return (f"gate {verdict}: {len(results)} bodies, {within} within level {max_level}, {exceeding} above it, "
-            f"{errors} unreadable")
-
-
 def check_junit_target(path: Path, inputs: list[Path], force: bool) -> None:
     """The JUnit report never replaces a body of the same run, and replaces another file only when it is a
     JUnit report already or with --force."""

@@ -316,6 +316,49 @@ def campbell_line(campbell: dict, t: str) -> str:
             + where + ": " + ", ".join(f"{k} {_err(x)}" for k, x in campbell["frequency_error"].items()))
 
 
+def gate_summary(results: list[dict], max_level: str) -> str:
+    """One line: how many bodies are within ``max_level``, exceed it, or could not be read."""
+    errors = sum(1 for r in results if r["error"])
+    within = sum(1 for r in results if not r["error"] and r["within"])
+    exceeding = len(results) - errors - within
+    verdict = "FAILED" if errors or exceeding else "passed"
+    bodies = f"{len(results)} {'body' if len(results) == 1 else 'bodies'}"
+    return f"gate {verdict}: {bodies}, {within} within level {max_level}, {exceeding} above it, {errors} unreadable"
+
+
+def gate_report(console: Console, warnings: Console, results: list[dict], max_level: str, point: str) -> None:
+    """gate's text: the operating point, a line per body (ok / EXCEEDS / ERROR) with the rule that decided, its
+    warnings on ``warnings`` (stderr), and the summary line."""
+    console.print(f"operating point: {point}", highlight=False)
+    for r in results:
+        status = "ERROR" if r["error"] else ("ok" if r["within"] else "EXCEEDS")
+        text = r["error"] or f"{r['file']}: level {r['level']} (max {max_level})"
+        if r["error"] and not text.startswith(r["file"]):
+            text = f"{r['file']}: {text}"  # errors that name no file get it once
+        console.print(f"{status:8s} {shown(text, 2000)}", highlight=False)
+        if r["analysis"] is not None:
+            console.print(f"{'':8s} decided by: {r['analysis']['decided_by']}", highlight=False)
+        for w in r["warnings"]:
+            warnings.print(f"{shown(r['file'])}: warning: {shown(w, 2000)}", highlight=False)
+    console.print(gate_summary(results, max_level), highlight=False)
+
+
+def settings_report(console: Console, warnings: Console, data: dict) -> None:
+    """settings' text: the level and terms, the solver's coupling option and invariant pattern, what each term
+    needs; the warnings on ``warnings`` (stderr)."""
+    for w in data["warnings"]:
+        warnings.print(f"warning: {w}", highlight=False)
+    console.print(f"level {data['level']}: terms {', '.join(data['terms'])}")
+    console.print(f"Adams: [bold]{data['formulation']}[/bold]   INVARIANTS={data['invariants']}")
+    console.print(f"  {data['statement']}")
+    for term, invs in data["needed_invariants"].items():
+        console.print(f"  {term:13s} " + (f"needs {', '.join(invs)}" if invs else
+                                          "no invariant carries it: the solver needs its own stress stiffening "
+                                          "(theory 9)"), highlight=False)
+    console.print(f"source: {data['source']}", highlight=False)
+    console.print(f"note: {data['pattern_note']}", highlight=False)
+
+
 def verification_report(console: Console, d: dict) -> None:
     """The verdict on top, then per scene the errors, drift and speed-up of each set, stability and Campbell."""
     v = d["verdict"]

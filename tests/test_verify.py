@@ -237,11 +237,16 @@ def test_the_conrods_campbell_branches_about_axis_2_have_no_jumps():
 
 
 # ---------------------------------------------------------------- the command
+def _bar_file(tmp_path: Path) -> Path:
+    """A 300 x 20 x 10 mm steel bar with 4 modes written as bar.ffrf.h5: a verification in seconds."""
+    path = tmp_path / "bar.ffrf.h5"
+    write_body(modal_body(box_mesh([300.0, 20.0, 10.0], [6, 1, 1], "hexahedron20"), STEEL, 4, name="bar"), path)
+    return path
+
+
 @pytest.mark.slow
 def test_verify_command_on_a_small_body_writes_json_and_figures(tmp_path):
-    body = modal_body(box_mesh([300.0, 20.0, 10.0], [6, 1, 1], "hexahedron20"), STEEL, 4, name="bar")
-    path = tmp_path / "bar.ffrf.h5"
-    write_body(body, path)
+    path = _bar_file(tmp_path)
     out = tmp_path / "figures"
     r = subprocess.run([sys.executable, "-m", "ffrf_advisor", "verify", str(path), "--speed", "200rad/s",
                         "--scene", "free-spin", "--scene", "torque-pulse", "--repeat", "1", "-o", str(out), "--json"],
@@ -265,9 +270,7 @@ def test_verify_command_on_a_small_body_writes_json_and_figures(tmp_path):
 def test_quick_verify_gives_the_scenes_and_the_verdict_without_the_studies(tmp_path):
     """verify --quick (issue 24): the same verdict and errors as the whole verification (and on --jobs 2), the
     studies null in the JSON (schema verify.json) and named as left out in the text."""
-    body = modal_body(box_mesh([300.0, 20.0, 10.0], [6, 1, 1], "hexahedron20"), STEEL, 4, name="bar")
-    path = tmp_path / "bar.ffrf.h5"
-    write_body(body, path)
+    path = _bar_file(tmp_path)
     args = ["verify", str(path), "--speed", "200rad/s", "--scene", "free-spin", "--axis", "1", "--repeat", "1"]
     quick = json.loads(CliRunner().invoke(app, [*args, "--quick", "--json"]).output)
     jsonschema.validate(quick, schema("verify"))
@@ -288,9 +291,7 @@ def test_verify_fail_on_ends_with_1_on_an_unsafe_advice_and_0_when_it_holds(tmp_
     """verify --fail-on (issue 25): the paper's rules with every threshold raised to 1e9 advise level I for a
     bar at 200 rad/s, which the scene calls unsafe: exit 1 on unsafe and on conservative; the default advice
     holds there: exit 0 on both; without --fail-on, 0 whatever the verdict."""
-    body = modal_body(box_mesh([300.0, 20.0, 10.0], [6, 1, 1], "hexahedron20"), STEEL, 4, name="bar")
-    path = tmp_path / "bar.ffrf.h5"
-    write_body(body, path)
+    path = _bar_file(tmp_path)
     args = ["verify", str(path), "--speed", "200rad/s", "--scene", "free-spin", "--axis", "1", "--repeat", "1",
             "--quick", "--json"]
     raised = ["--rules", "paper"] + [a for k in ("widening_stress", "dI_L", "dI_Q", "dI_fT", "dI_Tf", "r_cf2",
@@ -312,9 +313,7 @@ def test_a_sweep_on_a_dask_cluster_gives_the_errors_of_the_local_run(tmp_path):
     from distributed import LocalCluster
 
     from ffrf_advisor.verify.sweep import Task, run_sweep
-    body = modal_body(box_mesh([300.0, 20.0, 10.0], [6, 1, 1], "hexahedron20"), STEEL, 4, name="bar")
-    path = tmp_path / "bar.ffrf.h5"
-    write_body(body, path)
+    path = _bar_file(tmp_path)
     tasks = [Task(str(path), s, s / 1000.0, ("free-spin", "torque-pulse")) for s in (100.0, 300.0)]
     serial = run_sweep(tasks)
     local = run_sweep(tasks, jobs=2)

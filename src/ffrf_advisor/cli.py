@@ -11,7 +11,7 @@ import math
 import sys
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Optional, get_args, get_origin
 
@@ -225,35 +225,28 @@ Eigenvalues = Annotated[Optional[str], typer.Option(
 Density = Annotated[Optional[float], typer.Option(
     "--density", help="meshio meshes: density [t/mm^3] (else field data).")]
 
-# The one set of reading and analysis options, the same on every command that analyses a body.
-ANALYSIS_OPTIONS = {"speed": Speed, "speed_range": SpeedRange, "f_sys": FSys, "connection": Connection,
-                    "widening": Widening, "sigma_allow": SigmaAllow, "q_cap": QCap,
-                    "deflection_cap": DeflCap, "q_max": QMax, "n_ratio": NRatio, "threshold": Threshold,
-                    "config": Config, "spin_axis": SpinAxis, "tolerance": Tolerance, "rules": Rules,
-                    "excitation": Excitation, "eigenvalues": Eigenvalues, "density": Density}
-
-
 @dataclass(frozen=True)
 class AnalysisArgs:
-    """The analysis options (ANALYSIS_OPTIONS) as the command line gave them; None: config file or default."""
-    speed: Optional[str] = None
-    speed_range: Optional[str] = None
-    f_sys: Optional[float] = None
-    connection: Optional[str] = None
-    widening: Optional[bool] = None
-    sigma_allow: Optional[float] = None
-    q_cap: Optional[float] = None
-    deflection_cap: Optional[float] = None
-    q_max: Optional[str] = None
-    n_ratio: Optional[int] = None
-    threshold: Optional[list] = None
-    config: Optional[Path] = None
-    spin_axis: Optional[str] = None
-    tolerance: Optional[float] = None
-    rules: Optional[str] = None
-    excitation: Optional[str] = None
-    eigenvalues: Optional[str] = None
-    density: Optional[float] = None
+    """The one set of reading and analysis options, the same on every command that analyses a body, as the
+    command line gave them (None: config file or default); each field's annotation is its typer option."""
+    speed: Speed = None
+    speed_range: SpeedRange = None
+    f_sys: FSys = None
+    connection: Connection = None
+    widening: Widening = None
+    sigma_allow: SigmaAllow = None
+    q_cap: QCap = None
+    deflection_cap: DeflCap = None
+    q_max: QMax = None
+    n_ratio: NRatio = None
+    threshold: Threshold = None
+    config: Config = None
+    spin_axis: SpinAxis = None
+    tolerance: Tolerance = None
+    rules: Rules = None
+    excitation: Excitation = None
+    eigenvalues: Eigenvalues = None
+    density: Density = None
 
     def options(self) -> "Options":
         """analysis.Options from defaults < config file < command line."""
@@ -265,6 +258,9 @@ class AnalysisArgs:
 
     def mesh_options(self) -> dict:
         return _mesh_options(self.eigenvalues, self.density)
+
+
+ANALYSIS_OPTIONS = {f.name: f.type for f in fields(AnalysisArgs)}  # name -> typer option
 
 
 def analysis_options(fn):

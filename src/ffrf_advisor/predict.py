@@ -246,20 +246,12 @@ def inertia_bound(ref: Model, model: Model, D: np.ndarray) -> np.ndarray:
     if ref.on("inertia_lin") and not model.on("inertia_lin"):
         bound += np.abs(eq.linear_inertia(ref, D)).sum(axis=0)
     if ref.on("inertia_quad") and not model.on("inertia_quad"):
-        bound += np.abs(pair_quadratic_inertia(ref, D)).sum(axis=(0, 1))
+        bound += np.abs(eq.quadratic_inertia(ref, D[:, None], D[None, :])).sum(axis=(0, 1))  # all pairs at once
     if ref.on("coupling") and not model.on("coupling"):
         C = eq.coupling_matrix(ref, D)
         CC = np.einsum("iks,jls->ijkl", C, C)  # C_i C_j^T for every pair
         bound += np.abs(0.5 * (CC + np.swapaxes(CC, 0, 1))).sum(axis=(0, 1))
     return bound
-
-
-def pair_quadratic_inertia(m: Model, D: np.ndarray) -> np.ndarray:
-    """``eq.quadratic_inertia(m, D[i], D[j])`` for every pair (n, n, 3, 3), from the n x n blocks
-    ``D Sbar_ab D^T`` (two matrix products per block instead of one contraction of nf^2 per pair)."""
-    M = np.moveaxis(D @ m.Sbar @ D.T, (0, 1), (2, 3))  # M[i, j, a, b] = D_i^T Sbar_ab D_j
-    G = 0.5 * (M + np.swapaxes(M, 2, 3))
-    return np.trace(G, axis1=2, axis2=3)[..., None, None] * np.eye(3) - G
 
 
 def momentum_exchange(W3k: np.ndarray, om: np.ndarray, amplitude: np.ndarray, q_static: np.ndarray,

@@ -61,7 +61,8 @@ def linear_inertia(m: Model, q: np.ndarray) -> np.ndarray:
 def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray) -> np.ndarray:
     """``tr(G) I - G`` with the symmetrised ``G[a, b] = 0.5 (q^T Sbar_ab r + r^T Sbar_ab q)``.
 
-    ``q = r`` gives ``J2 = Qf^T W2 Qf``; ``(q', q)`` gives half of ``dJ2/dt``.
+    ``q = r`` gives ``J2 = Qf^T W2 Qf``; ``(q', q)`` gives half of ``dJ2/dt``. ``q`` and ``r`` broadcast
+    against each other (``D[:, None], D[None, :]``: every pair of rows at once).
     """
     Sr = np.tensordot(r, m.Sbar, axes=([-1], [3]))  # (..., 3, 3, nf): Sbar_ab r, one BLAS product
     G = np.einsum("...r,...abr->...ab", q, Sr)

@@ -3,6 +3,7 @@ the same options give the same level in `analyze` and `settings`; -h, --quiet an
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -124,3 +125,14 @@ def test_gate_ends_with_a_summary_line_and_names_the_deciding_rule():
     lines = result.stdout.splitlines()
     assert result.exit_code == 1 and lines[-1] == "gate FAILED: 2 bodies, 0 within level I, 2 above it, 0 unreadable"
     assert sum(line.strip().startswith("decided by: ") for line in lines) == 2 and "warning" not in result.stdout
+
+
+def test_the_q_max_table_is_stacked_per_mode_where_a_table_does_not_fit():
+    """Below the width the columns need (COLUMNS=60), one block per mode: every q_max still printed whole."""
+    analyze = ["analyze", str(SAMPLES / "beam.ffrf.h5"), "--speed", "300rad/s"]
+    amp = json.loads(runner.invoke(app, [*analyze, "--json"]).stdout)["amplitudes"]
+    text = runner.invoke(app, analyze, env={"COLUMNS": "60"}).stdout
+    block = text[text.index("maximum modal coordinates"):text.index("significance per axis")]
+    assert "┃" not in block and all(f"mode {p + 1}:" in block for p in range(len(amp["q_max"])))
+    q_max = re.findall(r"q_max\s+\[sqrt\(t\)\s+mm\]\s+(\S+);", block)
+    assert [float(v) for v in q_max] == pytest.approx(amp["q_max"], rel=5e-5)

@@ -10,6 +10,7 @@ def read_table(text: str, title: str) -> list[dict[str, str]]:
     top = next(i for i in range(start, len(lines)) if lines[i].lstrip().startswith("┏"))
     mid = next(i for i in range(top, len(lines)) if lines[i].lstrip().startswith("┡"))
     end = next(i for i in range(mid, len(lines)) if lines[i].lstrip().startswith("└"))
+    assert all(line.rstrip()[-1] in "┓┃┩│┘┤" for line in lines[top:end + 1]), "a table cropped at the right"
     headers = _cells(lines[top + 1:mid], "┃")
     body = lines[mid + 1:end]
     if not any(line.lstrip().startswith("├") for line in body):  # no lines between rows: one line, one row

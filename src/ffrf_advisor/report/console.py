@@ -12,6 +12,7 @@ from rich.markup import escape
 from rich.padding import Padding
 from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
 from rich.table import Table
+from rich.text import Text
 
 from ..adequacy import summary as basis_summary
 from ..body import FlexibleBody
@@ -119,18 +120,13 @@ def analysis_summary(console: Console, a, warnings: Console | None = None) -> No
     for w in adv.warnings:
         (warnings or console).print(f"[yellow]warning[/yellow]: {w}")
     _candidates(console, a)
-    t = Table(title=f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "
-                    f"sigma_allow {amp.sigma_allow:.4g} {u.stress})")
+    headers = ("mode", f"f {_unit(u.frequency)}", f"q_max {_unit(f'sqrt({u.mass}) {u.length}')}", "governs",
+               "sigma / sigma_allow", "deflection / L")
     rows = [(str(p + 1), f"{b.frequencies_hz[p]:.4g}", f"{amp.q_max[p]:.4e}", amp.governs[p],
              "-" if amp.stress_utilisation is None else f"{amp.stress_utilisation[p]:.3g}",
              "-" if amp.deflection_ratio is None else f"{amp.deflection_ratio[p]:.3g}") for p in range(b.nf)]
-    for k, col in enumerate(("mode", f"f {_unit(u.frequency)}", f"q_max {_unit(f'sqrt({u.mass}) {u.length}')}",
-                             "governs", "sigma / sigma_allow", "deflection / L")):
-        t.add_column(col, justify="left" if col == "governs" else "right",  # headers break at blanks, values never
-                     min_width=max((len(r[k]) for r in rows), default=1))
-    for row in rows:
-        t.add_row(*row)
-    console.print(t)
+    fitted_table(console, f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "
+                          f"sigma_allow {amp.sigma_allow:.4g} {u.stress})", headers, rows, left=("governs",))
     m = Table(title=f"significance per axis (max over the first {sig.n_ratio} modes; theory 7)")
     for col in ("axis", "dI_L", "dI_Q", "dI_fT", f"s_crit {_unit(f'rad/{u.time}')}", "with G"):
         m.add_column(col, justify="right")
@@ -157,6 +153,27 @@ def analysis_summary(console: Console, a, warnings: Console | None = None) -> No
     _evidence(console, adv.rules)
 
 
+def fitted_table(console: Console, title: str, headers, rows, left=()) -> None:
+    """A table whose columns are as wide as their longest value or header word (headers break at blanks,
+    values never); where that is wider than the console, one stacked block per row instead (right at any
+    width)."""
+    plain = [Text.from_markup(h).plain for h in headers]
+    widths = [max([len(r[k]) for r in rows] + [len(w) for w in plain[k].split()]) for k in range(len(headers))]
+    if sum(widths) + 3 * len(widths) + 1 <= console.width:
+        t = Table(title=title)
+        for h, w in zip(headers, widths):
+            t.add_column(h, justify="left" if h in left else "right", width=w)
+        for row in rows:
+            t.add_row(*row)
+        console.print(t)
+        return
+    console.print(title, highlight=False)
+    for row in rows:
+        console.print(f"{plain[0]} {row[0]}:", highlight=False)
+        console.print(Padding(escape("; ".join(f"{h} {v}" for h, v in zip(plain[1:], row[1:]))), (0, 0, 0, 4)),
+                      highlight=False)
+
+
 def _candidates(console: Console, a) -> None:
     """Each candidate set with its predicted errors (docs/advice.md) and cost, the advised one marked."""
     adv, sit = a.advice, a.options.situation
@@ -174,17 +191,17 @@ def _candidates(console: Console, a) -> None:
 
 
 def _evidence(console: Console, rules) -> None:
-    """One block per rule, stacked (right at any width): level, measure, value against threshold, outcome and
-    terms on one line, the reason indented below."""
+    """One block per rule, stacked (right at any width): level, measure, value against threshold and outcome
+    on one line, the terms it adds and the reason indented below."""
     console.print("[bold]evidence per rule (theory 8)[/bold]")
     for rule in rules:
         fired = "not evaluated" if rule.fired is None else ("fired" if rule.fired else "not fired")
         value = "" if rule.value is None else f"{rule.value:.3g}"
         if rule.threshold is not None and rule.value is not None:
             value += f" (threshold {rule.threshold:g})"
-        terms = f" -> {', '.join(rule.terms)}" if rule.terms else ""
-        console.print(f"{rule.rule:<4}{rule.name:<19}{value + '  ' if value else ''}{fired}{terms}", highlight=False)
-        console.print(Padding(escape(rule.reason), (0, 0, 0, 4)), highlight=False)
+        console.print(f"{rule.rule:<4}{rule.name:<19}{value + '  ' if value else ''}{fired}", highlight=False)
+        terms = f"-> {', '.join(rule.terms)}\n" if rule.terms else ""
+        console.print(Padding(escape(terms + rule.reason), (0, 0, 0, 4)), highlight=False)
 
 
 def _basis_table(console: Console, a) -> None:

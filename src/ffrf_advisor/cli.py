@@ -443,7 +443,7 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
     from .gate import check_junit_target, run_gate, write_junit
     from .guidelines import LEVELS, operating_point
     from .io.atomic import atomic_path
-    from .report.console import gate_report
+    from .report.console import gate_report, step_bar
     from .report.json_out import SCHEMA_VERSION
     max_level = max_level.strip().upper()
     if max_level not in LEVELS:
@@ -454,7 +454,8 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
     if options.situation.w_op is None:
         raise FFRFError("gate: --speed: expected the operating speed (0 for a body at rest), --speed-range or "
                         "speed in the config; without one only the rules that hold at rest would be evaluated")
-    results = run_gate([str(b) for b in bodies], options, max_level, jobs, notes(), args.mesh_options())
+    with step_bar(notes()) as progress:
+        results = run_gate([str(b) for b in bodies], options, max_level, jobs, args.mesh_options(), progress)
     if junit is not None:
         with atomic_path(junit, overwrite=True) as tmp:
             write_junit(results, max_level, tmp)
@@ -502,20 +503,31 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
     """HTML or PDF report: verdict, evidence, the paper's figures and tables, pictures, Campbell, verification."""
     import tempfile
     from .report import document
+    from .report.console import busy, step_bar
     from .report.write import check_report_target, write
     check_report_target(output, bodies, force)
     if verification and len(verification) != len(bodies):
         raise FFRFError(f"--verification: expected one file per body ({len(bodies)}), got {len(verification)}")
     options = args.options()
-    analyses = [run_analysis(args.read(b), options) for b in bodies]
+    with step_bar(notes()) as progress:
+        analyses = [_analysed(args, b, options, progress, (i, len(bodies))) for i, b in enumerate(bodies)]
     with tempfile.TemporaryDirectory(prefix="ffrf-report-") as scratch:  # figures of --verify, until written
         studies = [_verification(a, b, Path(scratch) / str(i) if verify else None,
                                  verification[i] if verification else None)
                    for i, (a, b) in enumerate(zip(analyses, bodies))]
         doc = (document.single(analyses[0], str(bodies[0]), studies[0]) if len(bodies) == 1
                else document.collection(analyses, [str(b) for b in bodies], studies))
-        write(doc, output, force)
+        with busy(notes(), f"writing {output}"):
+            write(doc, output, force)
     notes().print(f"wrote {output} ({output.stat().st_size / 1024:.0f} KiB)", markup=False, highlight=False)
+
+
+def _analysed(args: AnalysisArgs, body: Path, options, progress, step: tuple[int, int]):
+    """run_analysis of one body of a report, then ``progress`` (step_bar) told which of how many is done."""
+    analysis = run_analysis(args.read(body), options)
+    if progress is not None:
+        progress(f"analysed {body}", step[0] + 1, step[1])
+    return analysis
 
 
 def _verification(analysis, body: Path, folder: Optional[Path], given: Optional[Path]) -> Optional[dict]:

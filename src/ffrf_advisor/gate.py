@@ -5,8 +5,7 @@ import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from rich.console import Console
-from rich.progress import Progress
+from collections.abc import Callable
 
 from .analysis import Options, analyze
 from .errors import FFRFError
@@ -15,9 +14,6 @@ from .io import check_reader_options, read_body
 from .io.atomic import refuse_inputs
 from .pool import mapper
 from .report.json_out import analysis_json
-
-PROGRESS_FROM = 5  # show a progress bar from this many bodies on
-
 
 def gate_one(path: str, options: Options, max_level: str, read_options: dict | None = None) -> dict:
     """One body's gate record with its wall time; bad input becomes an 'error' entry instead of an exception."""
@@ -41,17 +37,17 @@ def _gate_record(path: str, options: Options, max_level: str, read_options: dict
             "within": LEVELS.index(result["level"]) <= LEVELS.index(max_level)}
 
 
-def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, console: Console,
-             read_options: dict | None = None) -> list[dict]:
-    show = len(paths) >= PROGRESS_FROM and not console.quiet
-    with Progress(console=console, disable=not show, transient=True) as progress:
-        task = progress.add_task("analysing bodies", total=len(paths))
-        results = []
-        with mapper(jobs, chunksize=max(1, len(paths) // (4 * jobs))) as map_:
-            for record in map_(gate_one, paths, *([x] * len(paths) for x in (options, max_level, read_options))):
-                results.append(record)
-                progress.advance(task)
-        return results
+def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, read_options: dict | None = None,
+             progress: Callable[[str, int, int], None] | None = None) -> list[dict]:
+    """Each body's gate record (gate_one) in order, ``jobs`` processes handing out bodies in chunks;
+    ``progress(file, done, total)`` after each body when given."""
+    results = []
+    with mapper(jobs, chunksize=max(1, len(paths) // (4 * jobs))) as map_:
+        for record in map_(gate_one, paths, *([x] * len(paths) for x in (options, max_level, read_options))):
+            results.append(record)
+            if progress is not None:
+                progress(record["file"], len(results), len(paths))
+    return results
 
 
 def check_junit_target(path: Path, inputs: list[Path], force: bool) -> None:

@@ -261,6 +261,17 @@ def _live_bar(console: Console, after_s: float):
 
 
 @contextmanager
+def busy(console: Console, label: str):
+    """A transient spinner with ``label`` on ``console`` while a single long step runs (writing a report); none
+    off a terminal and under --quiet."""
+    if not console.is_terminal or console.quiet:
+        yield
+        return
+    with console.status(label):
+        yield
+
+
+@contextmanager
 def progress_bar(console: Console, after_s: float = 1.0):
     """A callback ``progress(fraction)`` of a simulation (``_live_bar``), or None."""
     with _live_bar(console, after_s) as update:

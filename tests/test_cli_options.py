@@ -10,7 +10,8 @@ import pytest
 import typer.main
 from typer.testing import CliRunner
 
-from ffrf_advisor.cli import ANALYSIS_OPTIONS, app
+from ffrf_advisor.cli import app
+from ffrf_advisor.cli_options import ANALYSIS_OPTIONS
 
 SAMPLES = Path(__file__).resolve().parent.parent / "sample_bodies"
 ANALYSING = ("analyze", "gate", "compare", "settings", "verify", "simulate", "report")

@@ -7,24 +7,20 @@ they cost about 8 ms more.
 """
 import functools
 import inspect
-import math
 import sys
 import time
 import warnings
-from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Optional, get_args, get_origin
+from typing import Annotated, Optional, get_args, get_origin
 
 import typer
 from typer._click.exceptions import NoArgsIsHelpError, UsageError  # typer vendors click (pinned)
 from typer.core import TyperArgument, TyperGroup
 
 from . import __version__
+from .cli_options import AnalysisArgs, Density, Eigenvalues, analysis_options, numbers, read_any
 from .errors import FFRFError
 from .names import INTEGRATORS, MAX_MEMORY_ENV, SAMPLES, SCENES, SCHEMA_COMMANDS, SOLVERS
-
-if TYPE_CHECKING:
-    from .analysis import Options
 
 _consoles: dict = {}  # this run's rich consoles: "out" (stdout), "err" (errors, warnings), "info" (progress, notes)
 _run = {"quiet": False}  # this run's --quiet
@@ -43,6 +39,11 @@ def _console(kind: str):
 
 
 out, err, notes = (functools.partial(_console, kind) for kind in ("out", "err", "info"))
+
+
+def _note(text: str) -> None:
+    """A note on stderr (silent under --quiet), printed as it is."""
+    notes().print(text, markup=False, highlight=False)
 
 
 def _print_json(data) -> None:
@@ -186,30 +187,6 @@ def main(version: bool = typer.Option(False, "--version", callback=_version, is_
         limits.follow_outside(follow_outside)
 
 
-Speed = Annotated[Optional[str], typer.Option("--speed", help="Operating angular speed: 314rad/s, 3000rpm, 50Hz.")]
-FSys = Annotated[Optional[float], typer.Option("--f-sys", help="First frequency of the assembled system [Hz].")]
-Connection = Annotated[Optional[str], typer.Option("--connection", help="free | soft | stiff (default free).")]
-Widening = Annotated[Optional[bool], typer.Option("--widening/--no-widening",
-                                                  help="Whether widening / stress recovery matters (default: from stress).")]
-SigmaAllow = Annotated[Optional[float], typer.Option("--sigma-allow", help="Allowable stress [N/mm^2] (500).")]
-QCap = Annotated[Optional[float], typer.Option("--q-cap", help="Cap of q_max,1 in t-mm units (1).")]
-DeflCap = Annotated[Optional[float], typer.Option("--deflection-cap", help="Largest deflection / largest dimension.")]
-QMax = Annotated[Optional[str], typer.Option("--q-max", help="q_max per mode: comma list or a file of numbers.")]
-NRatio = Annotated[Optional[int], typer.Option("--n-ratio", help="Modes used for the norm ratios (min(10, nf)).")]
-Threshold = Annotated[Optional[list[str]], typer.Option("--threshold", help="Override a threshold: NAME=VALUE.")]
-Config = Annotated[Optional[Path], typer.Option("--config", help="TOML config (default ffrf-advisor.toml or pyproject).")]
-Tolerance = Annotated[Optional[float], typer.Option(
-    "--tolerance", help="Largest relative response error the advised set may make (0.01; docs/advice.md).")]
-Rules = Annotated[Optional[str], typer.Option(
-    "--rules", help="predicted (default: from predicted response errors), thresholds (theory 8's rules with "
-                    "--threshold) or paper (the paper's rules, 5 % and 1 %).")]
-Excitation = Annotated[Optional[str], typer.Option(
-    "--excitation", help="vibration (default: the modes may vibrate at q_max) or inertial (only the body's own "
-                         "rigid motion drives them: spin-up, torque pulses; docs/advice.md).")]
-SpeedRange = Annotated[Optional[str], typer.Option(
-    "--speed-range", help="Advise for a range of speeds: LOW..HIGH, e.g. 0..3000rpm (instead of --speed).")]
-
-
 def _json_option(command: str):
     return Annotated[bool, typer.Option("--json", help=f"Print JSON (its schema: `ffrf-advisor schema {command}`) "
                                                         "instead of tables.")]
@@ -218,67 +195,6 @@ def _json_option(command: str):
 AsJson = _json_option("analyze")
 InfoJson, GateJson, CompareJson = (_json_option(c) for c in ("info", "gate", "compare"))
 SettingsJson, SimulateJson, VerifyJson = (_json_option(c) for c in ("settings", "simulate", "verify"))
-SpinAxis = Annotated[Optional[str], typer.Option(
-    "--spin-axis", help="Spin axis: principal axis 1, 2, 3 or a body-frame vector X,Y,Z (default: each, the worst decides).")]
-Eigenvalues = Annotated[Optional[str], typer.Option(
-    "--eigenvalues", help="meshio meshes: eigenvalues [1/s^2] as a comma list or a file (else field data).")]
-Density = Annotated[Optional[float], typer.Option(
-    "--density", help="meshio meshes: density [t/mm^3] (else field data).")]
-
-@dataclass(frozen=True)
-class AnalysisArgs:
-    """The one set of reading and analysis options, the same on every command that analyses a body, as the
-    command line gave them (None: config file or default); each field's annotation is its typer option."""
-    speed: Speed = None
-    speed_range: SpeedRange = None
-    f_sys: FSys = None
-    connection: Connection = None
-    widening: Widening = None
-    sigma_allow: SigmaAllow = None
-    q_cap: QCap = None
-    deflection_cap: DeflCap = None
-    q_max: QMax = None
-    n_ratio: NRatio = None
-    threshold: Threshold = None
-    config: Config = None
-    spin_axis: SpinAxis = None
-    tolerance: Tolerance = None
-    rules: Rules = None
-    excitation: Excitation = None
-    eigenvalues: Eigenvalues = None
-    density: Density = None
-
-    def options(self) -> "Options":
-        """analysis.Options from defaults < config file < command line."""
-        return build_options(self)
-
-    def read(self, path: Path, **how):
-        """The body at ``path``, with the meshio reader's --eigenvalues and --density."""
-        return _read(path, self.eigenvalues, self.density, **how)
-
-    def mesh_options(self) -> dict:
-        return _mesh_options(self.eigenvalues, self.density)
-
-
-ANALYSIS_OPTIONS = {f.name: f.type for f in fields(AnalysisArgs)}  # name -> typer option
-
-
-def analysis_options(fn):
-    """Give the command the one set of reading and analysis options: typer sees ANALYSIS_OPTIONS as
-    keyword options after the command's own, the command receives them as ``args: AnalysisArgs``."""
-    signature = inspect.signature(fn)
-    own = [p for p in signature.parameters.values() if p.name != "args"]
-    added = [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=None, annotation=kind)
-             for name, kind in ANALYSIS_OPTIONS.items()]
-
-    @functools.wraps(fn)
-    def wrapper(*positional, **named):
-        given = AnalysisArgs(**{name: named.pop(name) for name in ANALYSIS_OPTIONS})
-        return fn(*positional, args=given, **named)
-    wrapper.__signature__ = signature.replace(parameters=own + added)
-    return wrapper
-
-
 @app.command()
 @handles_errors
 def info(body: Path = typer.Argument(..., help="Body file (any format, see `formats`)."),
@@ -288,131 +204,12 @@ def info(body: Path = typer.Argument(..., help="Body file (any format, see `form
     from .checks import run_checks
     from .report.console import body_summary
     from .report.json_out import info_json
-    b = _read(body, eigenvalues, density, load_fe=False)
+    b = read_any(body, eigenvalues, density, load_fe=False)
     checks = run_checks(b)
     if as_json:
         _print_json(info_json(b, checks, str(body)))
         return
     body_summary(out(), b, checks)
-
-
-def _is_file(text: str) -> bool:
-    """Whether ``text`` names an existing regular file (a long list of numbers is not a path: no OSError)."""
-    try:
-        return Path(text).is_file()
-    except (OSError, ValueError):
-        return False
-
-
-def _numbers(option: str, text: str | None):
-    """Numbers from a comma/blank list or a file of them; None stays None."""
-    if text is None:
-        return None
-    source = Path(text).read_text() if _is_file(text) else text
-    try:
-        return tuple(float(x) for x in source.replace(",", " ").split())
-    except ValueError:
-        raise FFRFError(f"{option}: expected numbers separated by commas or blanks (or a file of them), "
-                        f"got {text!r}") from None
-
-
-def _mesh_options(eigenvalues: str | None, density: float | None, young: float | None = None,
-                  poisson: float | None = None) -> dict:
-    """--eigenvalues/--density/--young/--poisson as reader options (meshio meshes only)."""
-    return {k: v for k, v in (("eigenvalues", _numbers("--eigenvalues", eigenvalues)), ("density", density),
-                              ("young", young), ("poisson", poisson)) if v is not None}
-
-
-def _read(path: Path, eigenvalues: str | None = None, density: float | None = None, fmt: str | None = None,
-          load_fe: bool | str = True, young: float | None = None, poisson: float | None = None):
-    """Read any format; --eigenvalues/--density/--young/--poisson go to the meshio reader only; ``load_fe``
-    "summary": what the analysis needs of the nodal data (io.ffrf_h5.read)."""
-    from .io import check_reader_options, read_body
-    mesh_options = _mesh_options(eigenvalues, density, young, poisson)
-    check_reader_options(path, mesh_options, fmt)
-    return read_body(path, fmt, load_fe=load_fe, **mesh_options)
-
-
-def _thresholds(items: list[str] | None, base: dict) -> dict:
-    from .guidelines import THRESHOLDS
-    out = dict(base)
-    for item in items or []:
-        name, _, value = item.partition("=")
-        if name not in THRESHOLDS:
-            raise FFRFError(f"--threshold {item!r}: unknown name; expected one of {', '.join(THRESHOLDS)}")
-        try:
-            out[name] = float(value)
-        except ValueError:
-            raise FFRFError(f"--threshold {item!r}: expected NAME=NUMBER") from None
-    return out
-
-
-def _spin_axis(text) -> tuple[tuple[float, float, float] | None, int | None]:
-    """(body-frame vector, principal axis): '1', '2', '3' are principal axes of I0, 'X,Y,Z' a direction."""
-    if text is None:
-        return None, None
-    if str(text).strip() in ("1", "2", "3"):
-        return None, int(str(text).strip())
-    if isinstance(text, (list, tuple)):
-        text = ",".join(str(x) for x in text)
-    values = _numbers("--spin-axis", str(text))
-    if values is None or len(values) != 3 or not all(map(math.isfinite, values)) or not any(values):
-        raise FFRFError(f"--spin-axis {text!r}: expected 1, 2, 3 or three finite numbers X,Y,Z, not all zero")
-    return tuple(values), None
-
-
-def _speed_range(text: str | None) -> tuple[float, float] | None:
-    """'A..B' with speeds as --speed takes them (e.g. 0..3000rpm: the unit of B applies to a bare A)."""
-    if text is None:
-        return None
-    low, sep, high = str(text).partition("..")
-    if not sep:
-        raise FFRFError(f"--speed-range {text!r}: expected LOW..HIGH, e.g. 0..3000rpm")
-    from .guidelines import parse_speed
-    top = parse_speed(high)
-    unit = high.strip().lstrip("+-0123456789.eE").strip()
-    bottom = parse_speed(low if not _is_number(low) or not unit else low.strip() + unit)
-    if bottom > top:
-        raise FFRFError(f"--speed-range {text!r}: expected LOW <= HIGH")
-    return bottom, top
-
-
-def _is_number(text) -> bool:
-    try:
-        float(str(text))
-    except ValueError:
-        return False
-    return True
-
-
-def build_options(given: AnalysisArgs) -> "Options":
-    """Options from defaults < config file < command line."""
-    from .amplitudes import AmplitudeOptions
-    from .analysis import Options, check_options
-    from .guidelines import Situation, load_config, parse_speed
-    cfg, config_file = load_config(given.config)
-    pick = lambda key, default=None: (getattr(given, key) if getattr(given, key) is not None  # noqa: E731
-                                      else cfg.get(key, default))
-    speed = pick("speed")
-    amp = AmplitudeOptions(sigma_allow=pick("sigma_allow", AmplitudeOptions.sigma_allow),
-                           q_cap=pick("q_cap", AmplitudeOptions.q_cap),
-                           deflection_cap=pick("deflection_cap"), q_max=_numbers("--q-max", given.q_max))
-    w_range = _speed_range(pick("speed_range"))
-    if w_range is not None and speed is not None:
-        raise FFRFError("--speed and --speed-range: expected one of them, got both")
-    w_op = w_range[1] if w_range is not None else (None if speed is None else parse_speed(speed))
-    if w_op and w_range is None and _is_number(speed):  # 0 is 0 in every unit
-        notes().print(f"note: speed {speed} has no unit: read as {w_op:g} rad/s (write e.g. 3000rpm or 50Hz)",
-                    highlight=False)
-    vector, principal = _spin_axis(pick("spin_axis"))
-    situation = Situation(w_op=w_op, f_sys=pick("f_sys"), connection=pick("connection", "free"),
-                          widening=given.widening, thresholds=_thresholds(given.threshold, cfg.get("thresholds", {})),
-                          spin_axis=vector, principal_axis=principal, tolerance=pick("tolerance", Situation.tolerance),
-                          rules=pick("rules", Situation.rules), speed_range=w_range,
-                          excitation=pick("excitation", Situation.excitation), config=config_file)
-    options = Options(amp, situation, pick("n_ratio"))
-    check_options(options)
-    return options
 
 
 @app.command()
@@ -423,7 +220,7 @@ def analyze(body: Path = typer.Argument(..., help="Body file."), as_json: AsJson
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
     from .report.console import analysis_summary
     from .report.json_out import analysis_json
-    result = run_analysis(args.read(body, load_fe="summary"), args.options())
+    result = run_analysis(args.read(body, load_fe="summary"), args.options(_note))
     if as_json:
         _print_json(analysis_json(result, str(body)))
     else:
@@ -450,7 +247,7 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
         raise FFRFError(f"--max-level {max_level!r}: expected one of {', '.join(LEVELS)}")
     if junit is not None:
         check_junit_target(junit, bodies, force)
-    options = args.options()
+    options = args.options(_note)
     if options.situation.w_op is None:
         raise FFRFError("gate: --speed: expected the operating speed (0 for a body at rest), --speed-range or "
                         "speed in the config; without one only the rules that hold at rest would be evaluated")
@@ -477,7 +274,7 @@ def compare(bodies: list[Path] = typer.Argument(..., help="Body files."), as_jso
     """Paper-style comparison of bodies: frequencies, stress, q_max, inertia, coupling and norm ratios."""
     from .report.compare import comparison, comparison_table
     from .report.console import shown
-    options = args.options()
+    options = args.options(_note)
     analyses = [run_analysis(args.read(b, load_fe="summary"), options) for b in bodies]
     data = comparison(analyses, [str(b) for b in bodies])
     if as_json:
@@ -508,7 +305,7 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
     check_report_target(output, bodies, force)
     if verification and len(verification) != len(bodies):
         raise FFRFError(f"--verification: expected one file per body ({len(bodies)}), got {len(verification)}")
-    options = args.options()
+    options = args.options(_note)
     with step_bar(notes()) as progress:
         analyses = [_analysed(args, b, options, progress, (i, len(bodies))) for i, b in enumerate(bodies)]
     with tempfile.TemporaryDirectory(prefix="ffrf-report-") as scratch:  # figures of --verify, until written
@@ -612,7 +409,7 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
     from .report.console import shown
     check_target(target, force)
     fmt = _writable(target, to_format)
-    body = _read(source, eigenvalues, density, from_format, young=young, poisson=poisson)
+    body = read_any(source, eigenvalues, density, from_format, young=young, poisson=poisson)
     if transform:
         body = body.moved_to_principal_frame()
     write_body(body, target, fmt.name, overwrite=force)
@@ -636,7 +433,7 @@ def augment(body: Path = typer.Argument(..., help="Body file with FE data and ma
     from .report.console import shown
     chosen = parse_axes(axes)
     check_target(output, force)
-    b = _read(body)
+    b = read_any(body)
     new = add_residual_vectors(b, chosen, str(body))
     write_body(new, output, "ffrf-h5", overwrite=force)
     errors = basis_errors(new)
@@ -676,7 +473,7 @@ def settings(body: Path = typer.Argument(..., help="Body file."),
     from .solver_settings import adams_settings
     if solver not in SOLVERS:
         raise FFRFError(f"--solver {solver!r}: expected one of {', '.join(SOLVERS)}")
-    result = run_analysis(args.read(body, load_fe="summary"), args.options())
+    result = run_analysis(args.read(body, load_fe="summary"), args.options(_note))
     data = {"schema_version": 1, "level": result.advice.level, "terms": list(result.advice.terms),
             **adams_settings(result.advice.terms),
             "warnings": list(result.advice.warnings)}
@@ -721,7 +518,7 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     if output is not None:
         check_output(output, force)
     b = args.read(body)
-    options = args.options()
+    options = args.options(_note)
     if output is not None:
         not_an_input(output)  # before the integration, not after it
     chosen = run_analysis(b, options).advice.terms if terms.strip() == "advised" else parse_terms(terms)
@@ -729,8 +526,8 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     setup = simulation_setup(b, t_end, step, output_step, integrator)
     if integrator not in FIXED:
         check_tolerances(rtol, atol)
-    start = q_max_of(b, options.amplitudes) if q0 is not None and q0.strip() == "qmax" else _numbers("--q0", q0)
-    w0, v0 = _numbers("--omega0", omega0), _numbers("--qd0", qd0)
+    start = q_max_of(b, options.amplitudes) if q0 is not None and q0.strip() == "qmax" else numbers("--q0", q0)
+    w0, v0 = numbers("--omega0", omega0), numbers("--qd0", qd0)
     check_initial_state(b, w0, start, None if v0 is None else np.asarray(v0) * setup.per_second)
     y0 = initial_state(model, np.array(w0) * setup.per_second, () if start is None else start, v0 or ())
     with progress_bar(notes()) as progress:
@@ -777,7 +574,7 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
     from .verify.checks import FAILING, check_verify_options
     from .verify.scenes import SceneOptions
     names = list(scene or SCENES)
-    options = args.options()
+    options = args.options(_note)
     tolerance = options.situation.tolerance
     check_verify_options(names, tolerance, integrator, step, rtol, repeats, output, criterion, fail_on)
     b = args.read(body)

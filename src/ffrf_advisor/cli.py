@@ -195,6 +195,9 @@ def _json_option(command: str):
 AsJson = _json_option("analyze")
 InfoJson, GateJson, CompareJson = (_json_option(c) for c in ("info", "gate", "compare"))
 SettingsJson, SimulateJson, VerifyJson = (_json_option(c) for c in ("settings", "simulate", "verify"))
+ModesJson = _json_option("modes")
+
+
 @app.command()
 @handles_errors
 def info(body: Path = typer.Argument(..., help="Body file (any format, see `formats`)."),
@@ -440,6 +443,45 @@ def augment(body: Path = typer.Argument(..., help="Body file with FE data and ma
     out().print(f"wrote {shown(output)}: {shown(new.name)}, {b.nf} + {len(chosen)} -> {new.nf} modes; energy-norm error of "
                 "the static centrifugal deflection about axes 1, 2, 3: " + ", ".join(f"{e:.2g}" for e in errors),
                 highlight=False)
+
+
+@app.command()
+@handles_errors
+@analysis_options
+def modes(body: Path = typer.Argument(..., help="Body file (with FE data: residual vectors and stresses)."),
+          scene: Optional[list[str]] = typer.Option(
+              None, "--scene", help=f"A scene the body must carry, repeatable: {', '.join(SCENES)} (default: "
+                                    "spin-up, torque-pulse, minor-axis)."),
+          f_max: Optional[float] = typer.Option(None, "--f-max", min=0.0,
+                                                help="Highest frequency the system excites [Hz]."),
+          output: Optional[Path] = typer.Option(None, "--output", "-o", help="Write the advised body "
+                                                                             "(.ffrf.h5): kept modes and "
+                                                                             "residual vectors."),
+          force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT."),
+          as_json: ModesJson = False, *, args: AnalysisArgs):
+    """Which modes the scenes need (theory 12): modes in their band or carrying their loads, residual vectors
+    where the static error is above the tolerance, the predicted error and the cost saved."""
+    from .io import write_body
+    from .io.atomic import check_target
+    from .modeset import INERTIAL_SCENES, advise_modes, inertia_loads, reduced_body
+    from .report.modes_out import modes_json, modes_report
+    names = tuple(scene or INERTIAL_SCENES)
+    if unknown := [n for n in names if n not in SCENES]:
+        raise FFRFError(f"--scene {unknown[0]!r}: expected one of {', '.join(SCENES)}")
+    if output is not None:
+        check_target(output, force)
+        _writable(output)
+    result = run_analysis(args.read(body), args.options(_note))
+    loads = inertia_loads(result.body)
+    advice = advise_modes(result, names, f_max=f_max, loads=loads)
+    if output is not None:
+        write_body(reduced_body(result.body, advice, loads, str(body)), output, overwrite=force)
+    if as_json:
+        _print_json(modes_json(advice, result.body.name, str(body), None if output is None else str(output)))
+        return
+    modes_report(out(), advice, result.body.name)
+    if output is not None:
+        notes().print(f"wrote {output}: {advice.size} basis vectors", markup=False, highlight=False)
 
 
 @app.command("schema")

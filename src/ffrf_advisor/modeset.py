@@ -1,0 +1,382 @@
+"""Which modes does a scene need? (theory section 12; the derivations in docs/modes.md)
+
+The rigid motion loads the flexible body through inertia: six centrifugal
+load cases ``f_kl`` (``w_k w_l``, order 11 22 33 12 13 23, as in theory 9
+and 11) and three Euler cases ``dw_k/dt`` (M-orthogonal to the free modes at
+q = 0: carried by the rigid motion, never by a mode). Per mode and load
+case the share of the static strain energy
+
+    p_k(f) = (phi_k^T f)^2 / lambda_k / (f^T K^+ f),    sum over all modes = 1,
+
+and per kept set S the energy-norm error ``e_S(f) = sqrt(1 - sum_S p_k)``.
+A scene excites up to ``f_exc`` (twice the spin frequency, the inverse of
+its ramp or pulse time, ``--f-max``); modes up to ``band * f_exc`` answer
+dynamically and are kept, an out-of-band mode is kept when it carries more
+than the tolerance of a load case the scene applies, and the load cases
+whose static error still exceeds the tolerance get their static
+deflection ``K^+ f`` as a residual vector.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .analysis import Analysis
+from .body import SYM_PAIRS, FlexibleBody
+from .errors import FFRFError
+from .sim.cost import rhs_cost
+from .significance import f_cf1
+from .units import TIME
+
+CASES = tuple(f"w{k + 1}w{l + 1}" for k, l in SYM_PAIRS)  # the six centrifugal load cases
+EULER = ("dw1/dt", "dw2/dt", "dw3/dt")  # no load on free modes at q = 0 (theory 12)
+BAND = 2.0        # modes up to BAND * f_exc respond dynamically (theory 12: the literature's 1.5-2)
+INERTIAL_SCENES = ("spin-up", "torque-pulse", "minor-axis")  # scenes only the rigid motion drives
+
+
+def coefficients(w: np.ndarray) -> np.ndarray:
+    """(6,): the weights of the six load cases in the centrifugal load of spin w, ``sum_j c_j f_j``."""
+    w = np.asarray(w, float)
+    return np.array([w[k] * w[l] * (1.0 if k == l else 2.0) for k, l in SYM_PAIRS])
+
+
+def modal_loads_from_invariants(body: FlexibleBody) -> np.ndarray:
+    """(nf, 6): ``phi_k^T f_j`` per unit spin^2 from the invariants alone: the cf1 force ``[w I] 0.5 W1^T w``
+    (theory 5) is quadratic in w, its six coefficients follow by polarisation."""
+    e = np.eye(3)
+    diag = [f_cf1(body, e[k]) for k in range(3)]
+    cross = [(f_cf1(body, e[k] + e[l]) - diag[k] - diag[l]) / 2 for k, l in SYM_PAIRS[3:]]
+    return np.column_stack(diag + cross)
+
+
+@dataclass(frozen=True)
+class InertiaLoads:
+    """The six centrifugal load cases of a body at unit spin: modal projections P (nf, 6) and, where known,
+    the compliances ``C = F^T K^+ F`` (6, 6; NaN where unknown), the static deflections U (3n, 6) with their
+    mass products ``U^T M U``, the nodal von Mises stress of each U (n, 6); ``source`` says where they came
+    from."""
+
+    P: np.ndarray
+    C: np.ndarray
+    source: str
+    U: np.ndarray | None = None
+    UMU: np.ndarray | None = None
+    stress: np.ndarray | None = None
+
+    @property
+    def compliance(self) -> np.ndarray:
+        """(6,) ``f_j^T K^+ f_j``."""
+        return np.diag(self.C)
+
+    @property
+    def bounded(self) -> np.ndarray:
+        """(6,) whether the static error of a case can be bounded (its compliance is known)."""
+        return np.isfinite(self.compliance) & (self.compliance > 0)
+
+
+def inertia_loads(body: FlexibleBody) -> InertiaLoads:
+    """From nodal FE data with K (or the material to assemble it): exact; else from the invariants, with the
+    principal compliances the body file caches (theory 11) and the others unknown."""
+    fe = body.fe
+    if fe is None or (fe.K is None and fe.material is None) or fe.rotary is not None:
+        C = np.full((6, 6), np.nan)
+        if body.static_centrifugal is not None:
+            C[:3, :3][np.diag_indices(3)] = body.static_centrifugal.compliance
+        return InertiaLoads(modal_loads_from_invariants(body), C,
+                            "invariants (W1); compliances of the principal cases from the file's cache"
+                            if body.static_centrifugal is not None else "invariants (W1): no compliance, "
+                            "the static error cannot be bounded")
+    from .adequacy import centrifugal_loads, static_deflections
+    from .fe.assembly import full_mass, stiffness_matrix
+    X = fe.mesh.points
+    K = fe.K if fe.K is not None else stiffness_matrix(fe.mesh, fe.material)
+    F = centrifugal_loads(X, fe.Ms)
+    U = static_deflections(X, fe.Ms, K, F)
+    n = len(X)
+    P = fe.Phi.reshape(3 * n, body.nf).T @ F
+    stress = None if fe.material is None else _von_mises(fe, U)
+    C = F.T @ U
+    return InertiaLoads(P, (C + C.T) / 2, "FE nodal sums (K^+ f by one factorisation)", U,
+                        U.T @ (full_mass(fe.Ms) @ U), stress)
+
+
+def _von_mises(fe, U: np.ndarray) -> np.ndarray:
+    """Nodal von Mises stress (n, m) of displacement fields U (3n, m)."""
+    from .fe.stress import nodal_stress, von_mises
+    n = fe.mesh.n_nodes
+    return von_mises(nodal_stress(fe.mesh, fe.material, U.reshape(n, 3, -1)).transpose(0, 3, 1, 2))
+
+
+def participation(loads: InertiaLoads, eigenvalues: np.ndarray) -> np.ndarray:
+    """(nf, 6): ``p_k(f_j)``, each mode's share of case j's static strain energy (NaN where unbounded)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return loads.P**2 / np.asarray(eigenvalues)[:, None] / np.where(loads.bounded, loads.compliance, np.nan)
+
+
+@dataclass(frozen=True)
+class SceneDemand:
+    """What a scene asks of the modes: the load cases it applies (indices into CASES), the unit spin
+    directions it passes through, the highest frequency it excites [Hz] and what sets it, the modes it starts
+    (vibrating scenes)."""
+
+    label: str
+    cases: tuple[int, ...]
+    directions: tuple[tuple[float, float, float], ...]
+    f_exc: float
+    excited_by: str
+    started: tuple[int, ...] = ()
+
+
+def scene_demands(a: Analysis, names, tolerance: float, f_max: float | None = None) -> list[SceneDemand]:
+    """The demands of the named verification scenes (verify.scenes, theory 10) on ``a``'s body: a case
+    applies when its weight is above ``tolerance`` of the largest (a wobble of 1 % brings the cross case
+    at 0.02); the minor-axis scene ends about the major axis and applies its case too."""
+    from .verify.scenes import SceneOptions, make_scenes, stable_axes
+    per_s = float(TIME[a.body.units.time])
+    out = []
+    for sc in make_scenes(names, a, SceneOptions()):
+        w = sc.omega0 if np.any(sc.omega0) else np.eye(3)[sc.axis]
+        directions = [w / np.linalg.norm(w)] + ([np.eye(3)[stable_axes(a)[0]]] if sc.name == "minor-axis" else [])
+        cases = sorted({j for d in directions for j, c in enumerate(np.abs(coefficients(d)))
+                        if c > tolerance * np.abs(coefficients(d)).max()})
+        pieces = {"2x spin": 2 * sc.speed / (2 * np.pi) * per_s}
+        program = sc.loads.program
+        if program is not None and program.spin is not None and program.ramp > 0:
+            pieces["1 / ramp"] = per_s / program.ramp
+        if program is not None and np.isfinite(program.pulse):
+            pieces["1 / pulse"] = per_s / program.pulse
+        if f_max is not None:
+            pieces["--f-max"] = f_max
+        by = max(pieces, key=pieces.get)
+        started = tuple(int(p) for p in np.flatnonzero(np.asarray(sc.q0) != 0) if sc.vibrating)
+        out.append(SceneDemand(sc.label, tuple(cases), tuple(tuple(map(float, d)) for d in directions),
+                               float(pieces[by]), by, started))
+    return out
+
+
+@dataclass(frozen=True)
+class ModeChoice:
+    """One mode's decision: its largest share of an applied case's static energy and of a case's peak stress
+    (NaN where unknown), kept or dropped and why."""
+
+    mode: int
+    f_hz: float
+    participation: float
+    stress_share: float
+    keep: bool
+    reason: str
+
+    @property
+    def decision(self) -> str:
+        """'keep (band)', 'keep (share)', 'keep (started)' or 'drop'."""
+        if not self.keep:
+            return "drop"
+        return "keep (" + next(w for w in ("started", "band", "share") if w in self.reason) + ")"
+
+
+@dataclass(frozen=True)
+class CaseError:
+    """The kept modes' static error of one applied load case: energy norm and peak von Mises stress (None
+    where they cannot be bounded), and whether its static deflection joins as a residual vector (then both
+    errors are zero: the static response lies in the basis)."""
+
+    case: str
+    energy: float | None
+    stress: float | None
+    residual: bool
+
+
+@dataclass(frozen=True)
+class ModeAdvice:
+    """The mode set a set of scenes needs (theory 12): kept modes (0-based), the load cases whose static
+    deflections join as residual vectors, per-mode and per-case evidence, the predicted response error of each
+    scene without and with the residual vectors, and the cost against all modes."""
+
+    nf: int
+    kept: tuple[int, ...]
+    residual_cases: tuple[int, ...]
+    modes: list[ModeChoice]
+    cases: list[CaseError]
+    scenes: list[SceneDemand]
+    predicted: list[tuple[float | None, float | None]]
+    tolerance: float
+    band: float
+    terms: tuple[str, ...]
+    rhs_ratio: float
+    step_ratio: float | None
+    step_ratio_modes: float
+    source: str
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def size(self) -> int:
+        """Basis vectors of the advised set: kept modes plus residual vectors."""
+        return len(self.kept) + len(self.residual_cases)
+
+    def worst(self, residual: bool) -> float | None:
+        """The largest predicted scene error with (``residual``) or without the residual vectors; None when a
+        scene's error cannot be bounded."""
+        values = [p[1] if residual else p[0] for p in self.predicted]
+        return None if any(v is None for v in values) else max(values, default=0.0)
+
+    def summary(self) -> str:
+        """One line: what carries the scenes within the tolerance, how much cheaper, and the explicit step."""
+        res = len(self.residual_cases)
+        worst = self.worst(bool(res))
+        vectors = f" and {res} residual vector{'s' * (res != 1)}" if res else ""
+        within = (f"within {self.tolerance:g} (predicted {worst:.2g})" if worst is not None
+                  else "(error not bounded: no compliance)")
+        text = (f"{len(self.kept)} of {self.nf} modes{vectors} carry the scenes {within}; right-hand side "
+                f"{self.rhs_ratio:.3g}x cheaper; explicit step x{self.step_ratio_modes:.3g}")
+        if res:
+            text += (" with a quasi-static correction, " + (f"x{self.step_ratio:.3g}" if self.step_ratio is not None
+                                                             else "unknown") + " with the residual vectors")
+        return text
+
+
+def amplification(f_exc: float, f: np.ndarray) -> np.ndarray:
+    """Quasi-static amplification ``1 / (1 - (f_exc / f)^2)`` of modes above the excitation (inf at or below
+    it; docs/modes.md)."""
+    r2 = (f_exc / np.asarray(f, float)) ** 2
+    with np.errstate(divide="ignore"):
+        return np.where(r2 < 1, 1.0 / (1.0 - r2), np.inf)
+
+
+def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = None, f_max: float | None = None,
+                 band: float = BAND, loads: InertiaLoads | None = None) -> ModeAdvice:
+    """The advised mode set of ``a``'s body for the named scenes (theory 12)."""
+    body, tol = a.body, tolerance if tolerance is not None else a.options.situation.tolerance
+    loads = loads or inertia_loads(body)
+    scenes = scene_demands(a, names, tol, f_max)
+    p = participation(loads, body.eigenvalues)
+    applied = sorted({j for s in scenes for j in s.cases})
+    share = _stress_share(body, loads)
+    modes = [_choice(k, body, scenes, p, share, applied, tol, band) for k in range(body.nf)]
+    kept, notes = tuple(m.mode for m in modes if m.keep), []
+    cases = [_case_error(j, kept, body, loads, p, tol) for j in applied]
+    residual = tuple(j for j, c in zip(applied, cases) if c.residual)
+    if not kept and not residual:
+        kept = (0,)
+        notes.append("no mode is needed within the tolerance; mode 1 kept so that the body has one")
+        cases = [_case_error(j, kept, body, loads, p, tol) for j in applied]
+    f = body.frequencies_hz
+    predicted = [_predicted(s, kept, residual, loads, body, f) for s in scenes]
+    terms = tuple(a.advice.terms)
+    size = len(kept) + len(residual)
+    return ModeAdvice(body.nf, kept, residual, modes, cases,
+                      scenes, predicted, tol, band, terms, rhs_cost(terms, body.nf) / rhs_cost(terms, size),
+                      _step_ratio(body, kept, residual, loads), _step_ratio(body, kept, (), loads), loads.source,
+                      notes)
+
+
+def _stress_share(body: FlexibleBody, loads: InertiaLoads) -> np.ndarray:
+    """(nf, 6): each mode's static von Mises stress at the peak node of case j over the exact peak, ``|q_k|
+    sigma_k(node_j) / sigma_j``; NaN without nodal stresses."""
+    nf = body.nf
+    if loads.stress is None or body.fe is None or body.fe.stress_nodal is None:
+        return np.full((nf, 6), np.nan)
+    node = loads.stress.argmax(axis=0)
+    peak = loads.stress.max(axis=0)
+    q = loads.P / body.eigenvalues[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.abs(q) * body.fe.stress_nodal[node].T / peak
+
+
+def _choice(k: int, body, scenes, p, share, applied, tol: float, band: float) -> ModeChoice:
+    f = float(body.frequencies_hz[k])
+    pk = max((p[k, j] for j in applied if np.isfinite(p[k, j])), default=np.nan)
+    sk = max((share[k, j] for j in applied if np.isfinite(share[k, j])), default=np.nan)
+    started = [s.label for s in scenes if k in s.started]
+    inside = [s for s in scenes if f <= band * s.f_exc]
+    if started:
+        keep, reason = True, f"keep: started by {started[0]}"
+    elif inside:
+        s = max(inside, key=lambda s: s.f_exc)
+        keep, reason = True, f"keep: in band ({f:.4g} <= {band:g} x {s.f_exc:.4g} Hz, {s.excited_by} of {s.label})"
+    elif np.isfinite(pk) and pk > tol:
+        keep, reason = True, f"keep: static energy share {pk:.2g} > {tol:g} of an applied load case"
+    else:
+        keep, reason = False, ("drop: out of band, " + (f"static energy share {pk:.2g} <= {tol:g}"
+                                                        if np.isfinite(pk) else "share unknown (no compliance)"))
+    return ModeChoice(k, f, float(pk), float(sk), keep, reason)
+
+
+def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float) -> CaseError:
+    """The kept modes' static errors of case j; a residual vector where one exceeds the tolerance and FE data
+    can give the deflection."""
+    ix = list(kept)
+    energy = float(np.sqrt(max(0.0, 1.0 - p[ix, j].sum()))) if loads.bounded[j] else None
+    stress = None
+    if loads.stress is not None:
+        q = loads.P[ix, j] / body.eigenvalues[ix]
+        n = body.fe.mesh.n_nodes
+        rest = loads.U[:, j] - body.fe.Phi[:, :, ix].reshape(3 * n, len(ix)) @ q
+        stress = float(_von_mises(body.fe, rest[:, None]).max() / loads.stress[:, j].max())
+    worst = max((e for e in (energy, stress) if e is not None), default=None)
+    return CaseError(CASES[j], energy, stress, loads.U is not None and worst is not None and worst > tol)
+
+
+def _predicted(scene: SceneDemand, kept, residual, loads: InertiaLoads, body, f) -> tuple[float | None, float | None]:
+    """Predicted relative energy-norm error of the scene's quasi-static response (docs/modes.md), the largest
+    over its spin directions: the dropped modes' static shares amplified by ``A_k`` without residual vectors,
+    by ``A_k - 1`` with them (their static part lies in the basis); the modes above the file's last count as
+    at its frequency. None when a needed compliance is unknown."""
+    errors = [_predicted_along(d, scene, kept, residual, loads, body, f) for d in scene.directions]
+    if not scene.cases:
+        return 0.0, 0.0
+    if any(e is None for e in errors):
+        return None, None
+    return max(e[0] for e in errors), max(e[1] for e in errors)
+
+
+def _predicted_along(d, scene: SceneDemand, kept, residual, loads: InertiaLoads, body, f):
+    """(without, with residual vectors) for unit spin along ``d``, its load restricted to the applied cases."""
+    ix = list(scene.cases)
+    c = coefficients(d)[ix]
+    C = loads.C[np.ix_(ix, ix)]
+    energy = float(c @ np.where(c[:, None] * c[None, :] == 0, 0.0, C) @ c)
+    if not np.isfinite(energy) or energy <= 0:
+        return None
+    pk = (loads.P[:, ix] @ c) ** 2 / body.eigenvalues / energy
+    drop = np.setdiff1d(np.arange(body.nf), kept)
+    A, top = amplification(scene.f_exc, f), amplification(scene.f_exc, f[-1:])[0]
+    rest = max(0.0, 1.0 - pk.sum())
+    without = float(np.sqrt(np.sum(pk[drop] * A[drop] ** 2) + rest * top**2))
+    if not set(ix) <= set(residual):
+        return without, without
+    return without, float(np.sqrt(np.sum(pk[drop] * (A[drop] - 1) ** 2) + rest * (top - 1) ** 2))
+
+
+def _step_ratio(body, kept, residual, loads: InertiaLoads) -> float | None:
+    """``Omega_max(all) / Omega_max(advised)``: the explicit step grows by this. With residual vectors the
+    advised set's top frequency is the largest Ritz value of [Phi_S, U_R], from ``K U = F`` and ``phi^T M U =
+    phi^T F / lambda`` (no stiffness matrix needed); None where U is unknown."""
+    lam = body.eigenvalues
+    if not residual:
+        return float(np.sqrt(lam.max() / lam[list(kept)].max()))
+    if loads.U is None:
+        return None
+    import scipy.linalg
+    ix, R = list(kept), list(residual)
+    PR = loads.P[np.ix_(ix, R)]
+    K = np.block([[np.diag(lam[ix]), PR], [PR.T, loads.C[np.ix_(R, R)]]])
+    M = np.block([[np.eye(len(ix)), PR / lam[ix, None]], [(PR / lam[ix, None]).T, loads.UMU[np.ix_(R, R)]]])
+    top = scipy.linalg.eigh(K, M, eigvals_only=True)[-1]
+    return float(np.sqrt(lam.max() / top))
+
+
+def reduced_body(body: FlexibleBody, advice: ModeAdvice, loads: InertiaLoads, source: str = "BODY") -> FlexibleBody:
+    """The advised body: the kept modes and the residual vectors of the advised load cases, brought back to the
+    form of theory section 1 with everything per mode recomputed (augment.with_residual_vectors); its
+    provenance records what was kept and why."""
+    from .augment import with_residual_vectors
+    kept = body.with_modes(list(advice.kept))
+    note = (f"mode set (theory 12) for {', '.join(s.label for s in advice.scenes)} within {advice.tolerance:g}: "
+            f"kept modes {', '.join(str(k + 1) for k in advice.kept)} of {advice.nf}")
+    if not advice.residual_cases:
+        return replace(kept, provenance=kept.provenance.with_note(note))
+    if loads.U is None:
+        raise FFRFError(f"{source}: modes/Phi: expected nodal FE data to add residual vectors, got invariants only")
+    note += f"; residual vectors of the centrifugal cases {', '.join(CASES[j] for j in advice.residual_cases)}"
+    return with_residual_vectors(kept, loads.U[:, list(advice.residual_cases)], note, source)

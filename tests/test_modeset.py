@@ -1,0 +1,166 @@
+"""Mode-set advice (theory 12, issue 26): load cases, static shares, residual vectors, the reduced body."""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg
+from typer.testing import CliRunner
+
+from ffrf_advisor.adequacy import basis_errors, centrifugal_loads, static_deflections
+from ffrf_advisor.analysis import Options, analyze
+from ffrf_advisor.augment import with_residual_vectors
+from ffrf_advisor.body import Provenance
+from ffrf_advisor.cli import app
+from ffrf_advisor.fe.assembly import full_mass, mass_matrix, stiffness_matrix
+from ffrf_advisor.fe.material import STEEL
+from ffrf_advisor.fe.mesh import box_mesh
+from ffrf_advisor.fe.modal import mass_normalised, rigid_modes, without_rigid
+from ffrf_advisor.fe_body import fe_body
+from ffrf_advisor.guidelines import Situation
+from ffrf_advisor.io import read_body
+from ffrf_advisor.modeset import (CASES, advise_modes, amplification, coefficients, inertia_loads,
+                                  modal_loads_from_invariants, participation, reduced_body)
+
+DIR = Path(__file__).resolve().parent.parent / "sample_bodies"
+runner = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def beam():
+    return read_body(DIR / "beam.ffrf.h5", load_fe=True)
+
+
+@pytest.fixture(scope="module")
+def advised(beam):
+    a = analyze(beam, Options(situation=Situation(w_op=300.0)))
+    loads = inertia_loads(beam)
+    return a, loads, advise_modes(a, loads=loads)
+
+
+def test_the_invariants_give_the_nodal_modal_loads(beam):
+    """phi_k^T f_j by nodal sums on the mesh equals the polarised cf1 force of the invariants (both exact sums
+    of the same mass matrix: round-off, 1e-12 of the largest)."""
+    P = inertia_loads(beam).P
+    assert np.abs(modal_loads_from_invariants(beam) - P).max() <= 1e-12 * np.abs(P).max()
+    w = np.array([0.3, -1.1, 0.7])
+    F = centrifugal_loads(beam.fe.mesh.points, beam.fe.Ms)
+    assert np.allclose(F @ coefficients(w), centrifugal_loads(beam.fe.mesh.points, beam.fe.Ms) @ coefficients(w))
+
+
+@pytest.fixture(scope="module")
+def every_mode():
+    """A small free box (hexahedron, 36 nodes) with all 102 flexible modes from a dense eigensolution."""
+    mesh = box_mesh([40.0, 20.0, 200.0], [2, 1, 5], "hexahedron")
+    Ms, K = mass_matrix(mesh, STEEL.rho), stiffness_matrix(mesh, STEEL)
+    M = full_mass(Ms)
+    lam, S = scipy.linalg.eigh(K.toarray(), M.toarray())
+    S = without_rigid(S[:, 6:], rigid_modes(mesh.points), M)
+    Phi = mass_normalised(S, M, mesh.points).reshape(mesh.n_nodes, 3, -1)
+    return fe_body("box", mesh, Ms, Phi, lam[6:], Provenance(), K, None, STEEL)
+
+
+def test_the_shares_of_all_modes_sum_to_one_and_the_error_is_the_projection_error(every_mode):
+    """sum_k p_k(f) = 1 over all flexible modes (eigensolver round-off: 1e-9), and e_S(f) of a kept set equals
+    |u - u_S|_K / |u|_K computed from the deflection and the modes."""
+    b = every_mode
+    loads = inertia_loads(b)
+    p = participation(loads, b.eigenvalues)
+    assert p.sum(axis=0) == pytest.approx(np.ones(6), abs=1e-9)
+    kept = np.arange(10)
+    n = b.fe.mesh.n_nodes
+    Phi = b.fe.Phi.reshape(3 * n, -1)[:, kept]
+    K = b.fe.K
+    for j in range(6):
+        u = loads.U[:, j]
+        rest = u - Phi @ (loads.P[kept, j] / b.eigenvalues[kept])
+        direct = np.sqrt(rest @ (K @ rest) / (u @ (K @ u)))
+        assert np.sqrt(max(0.0, 1 - p[kept, j].sum())) == pytest.approx(direct, rel=1e-6, abs=1e-7)
+
+
+def test_residual_vectors_remove_the_static_error_and_the_step_ratio_is_the_reduced_bodys(beam, advised):
+    """The written body carries the advised cases' static deflections (energy error at round-off: the square
+    root of 1e-12) and its top frequency is the one the Ritz values predicted (1e-5: the prediction takes
+    phi^T M u = phi^T f / lambda, exact for eigenvectors; the file's modes have relative eigen-residuals up to
+    4e-7)."""
+    a, loads, adv = advised
+    assert adv.residual_cases and set(adv.kept) < set(range(beam.nf))
+    r = reduced_body(beam, adv, loads)
+    assert r.nf == adv.size
+    errors = basis_errors(r)
+    for j in adv.residual_cases:
+        if j < 3:
+            assert errors[j] <= 1e-5
+    assert np.sqrt(beam.eigenvalues.max() / r.eigenvalues.max()) == pytest.approx(adv.step_ratio, rel=1e-5)
+    assert "kept modes" in r.provenance.notes[-1] and "residual vectors" in r.provenance.notes[-1]
+
+
+def test_modes_in_band_are_kept_and_a_high_f_max_keeps_every_mode(advised):
+    a, loads, adv = advised
+    for m in adv.modes:
+        inside = any(m.f_hz <= adv.band * s.f_exc for s in adv.scenes)
+        assert m.keep == (inside or m.participation > adv.tolerance)
+    wide = advise_modes(a, f_max=1e6, loads=loads)
+    assert wide.kept == tuple(range(a.body.nf)) and all(m.reason.startswith("keep: in band") for m in wide.modes)
+
+
+def test_amplification_of_a_mode_above_the_excitation():
+    assert amplification(1.0, np.array([2.0, 1.0, 0.5])) == pytest.approx([4 / 3, np.inf, np.inf])
+
+
+def test_without_nodal_data_the_principal_cases_come_from_the_cache(beam):
+    """An invariants-only read: projections from W1, compliances of 11, 22, 33 from the file's cache; the
+    cross cases cannot be bounded."""
+    cached = read_body(DIR / "beam.ffrf.h5", load_fe="summary")
+    loads, exact = inertia_loads(cached), inertia_loads(beam)
+    assert loads.U is None and loads.bounded.tolist() == [True] * 3 + [False] * 3
+    assert loads.compliance[:3] == pytest.approx(exact.compliance[:3], rel=1e-12)
+
+
+def test_modes_command_writes_the_advised_body_and_its_json(tmp_path):
+    target = tmp_path / "reduced.ffrf.h5"
+    result = runner.invoke(app, ["modes", str(DIR / "beam.ffrf.h5"), "--speed", "300rad/s", "-o", str(target),
+                                 "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    body = read_body(target, load_fe=True)
+    assert body.nf == data["size"] == len(data["kept"]) + len(data["residual_cases"])
+    assert set(data["residual_cases"]) <= set(CASES)
+    again = runner.invoke(app, ["modes", str(DIR / "beam.ffrf.h5"), "--speed", "300rad/s", "-o", str(target)])
+    assert again.exit_code == 2 and "exists" in again.output
+    bad = runner.invoke(app, ["modes", str(DIR / "beam.ffrf.h5"), "--scene", "wobble"])
+    assert bad.exit_code == 2 and "--scene 'wobble'" in bad.output and "Traceback" not in bad.output
+
+
+@pytest.mark.slow
+def test_the_advised_set_carries_a_spin_up_as_the_reference_does(beam, advised):
+    """Proof by simulation (theory 12): the prescribed spin-up about each stable axis, run with the advised
+    term set on the reference (all modes and the residual vectors of all six cases), the advised body and the
+    kept modes alone, compared in what both bases express: nodal deflections. The advised body's peak
+    deflection and its energy-norm error over the run stay within the tolerance; the kept modes alone err in
+    energy norm by the predicted error (within a factor 1.5: the prediction is quasi-static; the reference at
+    rtol 1e-10)."""
+    from ffrf_advisor.sim.model import build_model
+    from ffrf_advisor.verify.runner import run_scene
+    from ffrf_advisor.verify.scenes import make_scenes
+    a, loads, adv = advised
+    K = stiffness_matrix(beam.fe.mesh, beam.fe.material)
+    reference = with_residual_vectors(beam, loads.U, "all six cases")
+    bodies = {"reference": reference, "advised": reduced_body(beam, adv, loads),
+              "bare": beam.with_modes(list(adv.kept))}
+    for scene in make_scenes(("spin-up",), a):
+        u = {}
+        for name, body in bodies.items():
+            zero = np.zeros(body.nf)
+            run = run_scene(build_model(body, adv.terms), replace(scene, q0=zero, qd0=zero), rtol=1e-10)
+            u[name] = np.einsum("iap,tp->tia", body.fe.Phi, run.y[:, 7:7 + body.nf]).reshape(len(run.t), -1)
+        energy = lambda v: np.sqrt(np.einsum("ti,ti->t", v, (K @ v.T).T)).max()  # noqa: E731
+        peak = {name: np.sqrt((v.reshape(len(v), -1, 3) ** 2).sum(axis=2)).max() for name, v in u.items()}
+        predicted = adv.predicted[[s.label for s in adv.scenes].index(scene.label)]
+        assert abs(peak["advised"] - peak["reference"]) <= adv.tolerance * peak["reference"]
+        assert energy(u["advised"] - u["reference"]) <= adv.tolerance * energy(u["reference"])
+        bare = energy(u["bare"] - u["reference"]) / energy(u["reference"])
+        assert predicted[0] / 1.5 <= bare <= 1.5 * predicted[0], (scene.label, bare, predicted)

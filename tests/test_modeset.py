@@ -3,12 +3,10 @@ from __future__ import annotations
 
 import json
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.linalg
-from typer.testing import CliRunner
 
 from ffrf_advisor.adequacy import basis_errors, centrifugal_loads, static_deflections
 from ffrf_advisor.analysis import Options, analyze
@@ -25,13 +23,7 @@ from ffrf_advisor.io import read_body
 from ffrf_advisor.modeset import (CASES, advise_modes, amplification, coefficients, inertia_loads,
                                   modal_loads_from_invariants, participation, reduced_body)
 
-DIR = Path(__file__).resolve().parent.parent / "sample_bodies"
-runner = CliRunner()
-
-
-@pytest.fixture(scope="module")
-def beam():
-    return read_body(DIR / "beam.ffrf.h5", load_fe=True)
+from .test_adequacy import DIR, beam, runner  # noqa: F401 - the beam with its FE data, a module fixture
 
 
 @pytest.fixture(scope="module")

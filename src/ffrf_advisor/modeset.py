@@ -26,6 +26,7 @@ from .analysis import Analysis
 from .body import SYM_PAIRS, FlexibleBody
 from .errors import FFRFError
 from .sim.cost import rhs_cost
+from .sim.model import build_model
 from .significance import f_cf1
 from .units import TIME
 
@@ -116,13 +117,14 @@ def participation(loads: InertiaLoads, eigenvalues: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class SceneDemand:
-    """What a scene asks of the modes: the load cases it applies (indices into CASES), the unit spin
-    directions it passes through, the highest frequency it excites [Hz] and what sets it, the modes it starts
-    (vibrating scenes)."""
+    """What a scene asks of the modes: the load cases it applies (indices into CASES), the spins it passes
+    through and its nominal spin [rad per body time unit], the highest frequency it excites [Hz] and what sets
+    it, the modes it starts (vibrating scenes)."""
 
     label: str
     cases: tuple[int, ...]
     directions: tuple[tuple[float, float, float], ...]
+    speed: float
     f_exc: float
     excited_by: str
     started: tuple[int, ...] = ()
@@ -136,8 +138,11 @@ def scene_demands(a: Analysis, names, tolerance: float, f_max: float | None = No
     per_s = float(TIME[a.body.units.time])
     out = []
     for sc in make_scenes(names, a, SceneOptions()):
-        w = sc.omega0 if np.any(sc.omega0) else np.eye(3)[sc.axis]
-        directions = [w / np.linalg.norm(w)] + ([np.eye(3)[stable_axes(a)[0]]] if sc.name == "minor-axis" else [])
+        w = sc.omega0 if np.any(sc.omega0) else sc.speed * np.eye(3)[sc.axis]
+        directions = [w]
+        if sc.name == "minor-axis":  # ends about the major axis with the same angular momentum
+            major = stable_axes(a)[0]
+            directions.append(np.eye(3)[major] * np.linalg.norm(a.body.I0 @ w) / a.body.I0[major, major])
         cases = sorted({j for d in directions for j, c in enumerate(np.abs(coefficients(d)))
                         if c > tolerance * np.abs(coefficients(d)).max()})
         pieces = {"2x spin": 2 * sc.speed / (2 * np.pi) * per_s}
@@ -151,7 +156,7 @@ def scene_demands(a: Analysis, names, tolerance: float, f_max: float | None = No
         by = max(pieces, key=pieces.get)
         started = tuple(int(p) for p in np.flatnonzero(np.asarray(sc.q0) != 0) if sc.vibrating)
         out.append(SceneDemand(sc.label, tuple(cases), tuple(tuple(map(float, d)) for d in directions),
-                               float(pieces[by]), by, started))
+                               float(sc.speed), float(pieces[by]), by, started))
     return out
 
 
@@ -169,10 +174,10 @@ class ModeChoice:
 
     @property
     def decision(self) -> str:
-        """'keep (band)', 'keep (share)', 'keep (started)' or 'drop'."""
+        """'keep (started)', 'keep (band)', 'keep (spun)', 'keep (share)' or 'drop'."""
         if not self.keep:
             return "drop"
-        return "keep (" + next(w for w in ("started", "band", "share") if w in self.reason) + ")"
+        return "keep (" + next(w for w in ("started", "band", "spun", "share") if w in self.reason) + ")"
 
 
 @dataclass(frozen=True)
@@ -225,10 +230,17 @@ class ModeAdvice:
         res = len(self.residual_cases)
         worst = self.worst(bool(res))
         vectors = f" and {res} residual vector{'s' * (res != 1)}" if res else ""
-        within = (f"within {self.tolerance:g} (predicted {worst:.2g})" if worst is not None
-                  else "(error not bounded: no compliance)")
-        text = (f"{len(self.kept)} of {self.nf} modes{vectors} carry the scenes {within}; right-hand side "
-                f"{self.rhs_ratio:.3g}x cheaper; explicit step x{self.step_ratio_modes:.3g}")
+        if worst is None:
+            verdict = "carry the scenes (error not bounded: no compliance)"
+        elif not np.isfinite(worst):
+            verdict = "cannot be judged: a scene excites beyond the file's modes (see the notes)"
+        elif worst <= self.tolerance:
+            verdict = f"carry the scenes within {self.tolerance:g} (predicted {worst:.2g})"
+        else:
+            scene = self.scenes[[p[1] if res else p[0] for p in self.predicted].index(worst)].label
+            verdict = f"leave a predicted error {worst:.2g} > {self.tolerance:g} in {scene}: verify by simulation"
+        text = (f"{len(self.kept)} of {self.nf} modes{vectors} {verdict}; right-hand side cost x"
+                f"{1 / self.rhs_ratio:.3g} of all modes'; explicit step x{self.step_ratio_modes:.3g}")
         if res:
             text += (" with a quasi-static correction, " + (f"x{self.step_ratio:.3g}" if self.step_ratio is not None
                                                              else "unknown") + " with the residual vectors")
@@ -260,14 +272,34 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
         kept = (0,)
         notes.append("no mode is needed within the tolerance; mode 1 kept so that the body has one")
         cases = [_case_error(j, kept, body, loads, p, tol) for j in applied]
-    f = body.frequencies_hz
-    predicted = [_predicted(s, kept, residual, loads, body, f) for s in scenes]
+    top = float(body.frequencies_hz[-1])
+    notes += [f"{s.label} excites up to {s.f_exc:.4g} Hz; its band ({band:g} x) ends above the file's last mode "
+              f"({top:.4g} Hz): compute more modes to bound its error" for s in scenes if band * s.f_exc > top]
+    model = build_model(body, a.advice.terms)
+    kept, predicted = _widened(kept, residual, modes, scenes, loads, model, body.frequencies_hz, tol)
     terms = tuple(a.advice.terms)
     size = len(kept) + len(residual)
     return ModeAdvice(body.nf, kept, residual, modes, cases,
-                      scenes, predicted, tol, band, terms, rhs_cost(terms, body.nf) / rhs_cost(terms, size),
-                      _step_ratio(body, kept, residual, loads), _step_ratio(body, kept, (), loads), loads.source,
-                      notes)
+                      scenes, [p[:2] for p in predicted], tol, band, terms,
+                      rhs_cost(terms, body.nf) / rhs_cost(terms, size), _step_ratio(body, kept, residual, loads),
+                      _step_ratio(body, kept, (), loads), loads.source, notes)
+
+
+def _widened(kept, residual, modes: list, scenes, loads: InertiaLoads, model, f_hz: np.ndarray, tol: float):
+    """(kept, predictions): while a scene's static error at its spin stays above the tolerance in the advised
+    basis, the dropped mode carrying most of it joins (the spin softens the body and couples the modes:
+    docs/modes.md); ``modes`` is updated with the reason."""
+    while True:
+        predicted = [_predicted(s, kept, residual, loads, model, f_hz) for s in scenes]
+        bad = [p for p in predicted if p[2] is not None and p[2] > tol]
+        dropped = [k for k in range(model.nf) if k not in kept]
+        if not bad or not dropped:
+            return kept, predicted
+        worst = max(bad, key=lambda p: p[2])
+        k = max(dropped, key=lambda k: worst[3][k])
+        modes[k] = replace(modes[k], keep=True, reason=f"keep: spun static error {worst[2]:.2g} > {tol:g} without "
+                                                       "it (the spin softens the body)")
+        kept = tuple(sorted((*kept, k)))
 
 
 def _stress_share(body: FlexibleBody, loads: InertiaLoads) -> np.ndarray:
@@ -317,35 +349,57 @@ def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float) -> CaseE
     return CaseError(CASES[j], energy, stress, loads.U is not None and worst is not None and worst > tol)
 
 
-def _predicted(scene: SceneDemand, kept, residual, loads: InertiaLoads, body, f) -> tuple[float | None, float | None]:
-    """Predicted relative energy-norm error of the scene's quasi-static response (docs/modes.md), the largest
-    over its spin directions: the dropped modes' static shares amplified by ``A_k`` without residual vectors,
-    by ``A_k - 1`` with them (their static part lies in the basis); the modes above the file's last count as
-    at its frequency. None when a needed compliance is unknown."""
-    errors = [_predicted_along(d, scene, kept, residual, loads, body, f) for d in scene.directions]
+def _predicted(scene: SceneDemand, kept, residual, loads: InertiaLoads, model, f_hz: np.ndarray) -> tuple:
+    """(without, with residual vectors, the static part of the latter, the modes' share of that static error
+    (nf,)): the largest predicted relative energy-norm errors of the scene's response over its spin directions
+    (``_spun``); None when a needed compliance is unknown."""
     if not scene.cases:
-        return 0.0, 0.0
-    if any(e is None for e in errors):
-        return None, None
-    return max(e[0] for e in errors), max(e[1] for e in errors)
+        return 0.0, 0.0, 0.0, np.zeros(model.nf)
+    runs = [_spun(np.asarray(w), scene, kept, residual, loads, model, f_hz) for w in scene.directions]
+    if any(r is None for r in runs):
+        return None, None, None, np.zeros(model.nf)
+    worst = max(runs, key=lambda r: r[2])
+    return max(r[0] for r in runs), max(r[1] for r in runs), worst[2], worst[3]
 
 
-def _predicted_along(d, scene: SceneDemand, kept, residual, loads: InertiaLoads, body, f):
-    """(without, with residual vectors) for unit spin along ``d``, its load restricted to the applied cases."""
+def _spun(w: np.ndarray, scene: SceneDemand, kept, residual, loads: InertiaLoads, model, f_hz: np.ndarray):
+    """Predicted errors at steady spin w (docs/modes.md): the static response of the term set at w over the
+    file's modes, ``K_s q = f0`` (``Omega^2 - s^2 Kc + s^2 G``, sim.linearise), against its Galerkin solution in
+    the kept modes (and in the kept modes plus the residual vectors' modal parts ``P_j / lambda``), each
+    dropped component amplified by ``A_k`` (with the residual vectors, which hold its static part, the excess
+    ``A_k - 1``); the static share beyond the file's modes at the amplification of its last mode."""
+    from .sim.linearise import _static_stiffness
     ix = list(scene.cases)
-    c = coefficients(d)[ix]
+    c = coefficients(w)[ix]
     C = loads.C[np.ix_(ix, ix)]
     energy = float(c @ np.where(c[:, None] * c[None, :] == 0, 0.0, C) @ c)
     if not np.isfinite(energy) or energy <= 0:
         return None
-    pk = (loads.P[:, ix] @ c) ** 2 / body.eigenvalues / energy
-    drop = np.setdiff1d(np.arange(body.nf), kept)
-    A, top = amplification(scene.f_exc, f), amplification(scene.f_exc, f[-1:])[0]
-    rest = max(0.0, 1.0 - pk.sum())
-    without = float(np.sqrt(np.sum(pk[drop] * A[drop] ** 2) + rest * top**2))
-    if not set(ix) <= set(residual):
-        return without, without
-    return without, float(np.sqrt(np.sum(pk[drop] * (A[drop] - 1) ** 2) + rest * (top - 1) ** 2))
+    lam = model.eigenvalues
+    Ks, f0 = _static_stiffness(model, w)
+    q = np.linalg.solve(Ks, f0)
+    rest = max(0.0, 1.0 - float(np.sum((loads.P[:, ix] @ c) ** 2 / lam)) / energy) * energy
+    A = amplification(scene.f_exc, f_hz)
+    top = A[-1] if rest > 1e-12 * energy else 1.0
+    total = float(q @ (lam * q)) + rest
+    drop = np.ones(model.nf, bool)
+    drop[list(kept)] = False
+    d = q - _galerkin(Ks, f0, np.eye(model.nf)[:, list(kept)])
+    gain = np.where(drop, A, 1.0)
+    without = np.sqrt((np.sum(lam * (d * gain) ** 2) + rest * top**2) / total)
+    basis = np.column_stack([np.eye(model.nf)[:, list(kept)], loads.P[:, list(residual)] / lam[:, None]])
+    dB = q - _galerkin(Ks, f0, basis)
+    excess = np.where(drop, A - 1.0, 0.0)
+    beyond = top - 1 if set(ix) <= set(residual) else top  # the residual vectors hold the static part beyond
+    with_res = np.sqrt((np.sum(lam * dB**2) + np.sum(lam * (q * excess) ** 2) + rest * beyond**2) / total)
+    return float(without), float(with_res), float(np.sqrt(np.sum(lam * dB**2) / total)), lam * dB**2
+
+
+def _galerkin(K: np.ndarray, f: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``B (B^T K B)^-1 B^T f``: the solution of K q = f in the span of B's columns (zero for no column)."""
+    if B.shape[1] == 0:
+        return np.zeros(len(f))
+    return B @ np.linalg.lstsq(B.T @ K @ B, B.T @ f, rcond=None)[0]
 
 
 def _step_ratio(body, kept, residual, loads: InertiaLoads) -> float | None:

@@ -156,3 +156,15 @@ def test_the_advised_set_carries_a_spin_up_as_the_reference_does(beam, advised):
         assert energy(u["advised"] - u["reference"]) <= adv.tolerance * energy(u["reference"])
         bare = energy(u["bare"] - u["reference"]) / energy(u["reference"])
         assert predicted[0] / 1.5 <= bare <= 1.5 * predicted[0], (scene.label, bare, predicted)
+
+
+def test_analyze_names_the_mode_set_that_modes_advises_from_the_cache_alone():
+    """analyze reads only the invariants cache; its mode-set line and JSON keep the modes that `modes` keeps
+    from the FE data for the same scenes (the shares agree to round-off, the principal compliances are cached)."""
+    beam_file = str(DIR / "beam.ffrf.h5")
+    analyzed = json.loads(runner.invoke(app, ["analyze", beam_file, "--speed", "300rad/s", "--json"]).stdout)
+    full = json.loads(runner.invoke(app, ["modes", beam_file, "--speed", "300rad/s", "--scene", "spin-up",
+                                          "--scene", "torque-pulse", "--json"]).stdout)
+    assert analyzed["mode_set"]["kept"] == full["kept"] and analyzed["mode_set"]["modes_total"] == 16
+    text = runner.invoke(app, ["analyze", beam_file, "--speed", "300rad/s"], env={"COLUMNS": "200"}).stdout
+    assert f"mode set: {len(full['kept'])} of 16 modes" in text

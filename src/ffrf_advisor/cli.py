@@ -221,13 +221,16 @@ def info(body: Path = typer.Argument(..., help="Body file (any format, see `form
 def analyze(body: Path = typer.Argument(..., help="Body file."), as_json: AsJson = False, *,
             args: AnalysisArgs):
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
+    from .modeset import ANALYZE_SCENES, advise_modes
     from .report.console import analysis_summary
     from .report.json_out import analysis_json
+    from .report.modes_out import mode_set_json
     result = run_analysis(args.read(body, load_fe="summary"), args.options(_note))
+    mode_set = advise_modes(result, ANALYZE_SCENES)
     if as_json:
-        _print_json(analysis_json(result, str(body)))
+        _print_json({**analysis_json(result, str(body)), "mode_set": mode_set_json(mode_set)})
     else:
-        analysis_summary(out(), result, err())
+        analysis_summary(out(), result, err(), f"{mode_set.summary()} (ffrf-advisor modes BODY: details)")
 
 
 @app.command()

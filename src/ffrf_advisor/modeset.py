@@ -34,6 +34,7 @@ CASES = tuple(f"w{k + 1}w{l + 1}" for k, l in SYM_PAIRS)  # the six centrifugal 
 EULER = ("dw1/dt", "dw2/dt", "dw3/dt")  # no load on free modes at q = 0 (theory 12)
 BAND = 2.0        # modes up to BAND * f_exc respond dynamically (theory 12: the literature's 1.5-2)
 INERTIAL_SCENES = ("spin-up", "torque-pulse", "minor-axis")  # scenes only the rigid motion drives
+ANALYZE_SCENES = ("spin-up", "torque-pulse")  # analyze's summary line: bounded from the invariants cache alone
 
 
 def coefficients(w: np.ndarray) -> np.ndarray:
@@ -243,7 +244,8 @@ class ModeAdvice:
                 f"{1 / self.rhs_ratio:.3g} of all modes'; explicit step x{self.step_ratio_modes:.3g}")
         if res:
             text += (" with a quasi-static correction, " + (f"x{self.step_ratio:.3g}" if self.step_ratio is not None
-                                                             else "unknown") + " with the residual vectors")
+                                                             else "unknown without FE data") +
+                     " with the residual vectors")
         return text
 
 
@@ -335,8 +337,8 @@ def _choice(k: int, body, scenes, p, share, applied, tol: float, band: float) ->
 
 
 def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float) -> CaseError:
-    """The kept modes' static errors of case j; a residual vector where one exceeds the tolerance and FE data
-    can give the deflection."""
+    """The kept modes' static errors of case j; a residual vector where one exceeds the tolerance (FE data
+    give it; the prediction needs only its modal part)."""
     ix = list(kept)
     energy = float(np.sqrt(max(0.0, 1.0 - p[ix, j].sum()))) if loads.bounded[j] else None
     stress = None
@@ -346,7 +348,7 @@ def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float) -> CaseE
         rest = loads.U[:, j] - body.fe.Phi[:, :, ix].reshape(3 * n, len(ix)) @ q
         stress = float(_von_mises(body.fe, rest[:, None]).max() / loads.stress[:, j].max())
     worst = max((e for e in (energy, stress) if e is not None), default=None)
-    return CaseError(CASES[j], energy, stress, loads.U is not None and worst is not None and worst > tol)
+    return CaseError(CASES[j], energy, stress, worst is not None and worst > tol)
 
 
 def _predicted(scene: SceneDemand, kept, residual, loads: InertiaLoads, model, f_hz: np.ndarray) -> tuple:
@@ -380,7 +382,7 @@ def _spun(w: np.ndarray, scene: SceneDemand, kept, residual, loads: InertiaLoads
     q = np.linalg.solve(Ks, f0)
     rest = max(0.0, 1.0 - float(np.sum((loads.P[:, ix] @ c) ** 2 / lam)) / energy) * energy
     A = amplification(scene.f_exc, f_hz)
-    top = A[-1] if rest > 1e-12 * energy else 1.0
+    top = amplification(scene.f_exc, [_beyond_hz(loads, ix, c, lam, f_hz, rest)])[0] if rest > 1e-12 * energy else 1.0
     total = float(q @ (lam * q)) + rest
     drop = np.ones(model.nf, bool)
     drop[list(kept)] = False
@@ -393,6 +395,19 @@ def _spun(w: np.ndarray, scene: SceneDemand, kept, residual, loads: InertiaLoads
     beyond = top - 1 if set(ix) <= set(residual) else top  # the residual vectors hold the static part beyond
     with_res = np.sqrt((np.sum(lam * dB**2) + np.sum(lam * (q * excess) ** 2) + rest * beyond**2) / total)
     return float(without), float(with_res), float(np.sqrt(np.sum(lam * dB**2) / total)), lam * dB**2
+
+
+def _beyond_hz(loads: InertiaLoads, ix, c: np.ndarray, lam: np.ndarray, f_hz: np.ndarray, rest: float) -> float:
+    """The frequency [Hz] at which the static part beyond the file's modes answers: the Rayleigh quotient of
+    that part, ``rest / (u^T M u - sum_k (P_k c / lambda_k)^2)`` (docs/modes.md), never below the last mode's;
+    the last mode's where U is unknown."""
+    if loads.UMU is None:
+        return float(f_hz[-1])
+    mass = float(c @ loads.UMU[np.ix_(ix, ix)] @ c - np.sum(((loads.P[:, ix] @ c) / lam) ** 2))
+    if mass <= 0:
+        return float(f_hz[-1])
+    per_hz = f_hz[-1] / np.sqrt(lam[-1])  # Hz per sqrt(eigenvalue)
+    return float(max(f_hz[-1], np.sqrt(rest / mass) * per_hz))
 
 
 def _galerkin(K: np.ndarray, f: np.ndarray, B: np.ndarray) -> np.ndarray:

@@ -108,15 +108,17 @@ def _lagrangian(adv, nf: int) -> str:
                else "none"))
 
 
-def analysis_summary(console: Console, a, warnings: Console | None = None) -> None:
+def analysis_summary(console: Console, a, warnings: Console | None = None, modes: str | None = None) -> None:
     """Level and term set on top, then amplitudes, significance tables and the evidence per rule; the warnings
-    on ``warnings`` (the CLI: stderr) when given."""
+    on ``warnings`` (the CLI: stderr) when given; ``modes``: the mode-set line (modeset, theory 12)."""
     b, amp, sig, adv = a.body, a.amplitudes, a.significance, a.advice
     u = b.units
     console.print(f"[bold]{shown(b.name)}[/bold]: level [bold]{adv.level}[/bold]   terms: {', '.join(adv.terms)}"
                   + _lagrangian(adv, b.nf))
     console.print(f"operating point: {adv.operating_point}", highlight=False)
     console.print(f"decided by: {adv.decided_by}", highlight=False)
+    if modes:
+        console.print(f"mode set: {modes}", highlight=False)
     for w in adv.warnings:
         (warnings or console).print(f"[yellow]warning[/yellow]: {w}")
     _candidates(console, a)

@@ -36,6 +36,12 @@ def modes_json(adv: ModeAdvice, body: str, source: str, written: str | None = No
     }
 
 
+def mode_set_json(adv: ModeAdvice) -> dict:
+    """analyze's ``mode_set``: the advised set for analyze's scenes in brief."""
+    return {"summary": adv.summary(), "scenes": [s.label for s in adv.scenes], "kept": [k + 1 for k in adv.kept],
+            "residual_cases": [CASES[j] for j in adv.residual_cases], "modes_total": adv.nf}
+
+
 def modes_report(console: Console, adv: ModeAdvice, name: str) -> None:
     """The advice on top, then the scenes, the modes, the load cases (theory 12)."""
     console.print(f"[bold]{shown(name)}[/bold]: {adv.summary()}", highlight=False)

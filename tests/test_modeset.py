@@ -125,6 +125,8 @@ def test_modes_command_writes_the_advised_body_and_its_json(tmp_path):
     assert again.exit_code == 2 and "exists" in again.output
     bad = runner.invoke(app, ["modes", str(DIR / "beam.ffrf.h5"), "--scene", "wobble"])
     assert bad.exit_code == 2 and "--scene 'wobble'" in bad.output and "Traceback" not in bad.output
+    lone = runner.invoke(app, ["modes", str(DIR / "beam.ffrf.h5"), "--figures", str(tmp_path)])
+    assert lone.exit_code == 2 and "--figures: expected --verify" in lone.output
 
 
 @pytest.mark.slow
@@ -168,3 +170,24 @@ def test_analyze_names_the_mode_set_that_modes_advises_from_the_cache_alone():
     assert analyzed["mode_set"]["kept"] == full["kept"] and analyzed["mode_set"]["modes_total"] == 16
     text = runner.invoke(app, ["analyze", beam_file, "--speed", "300rad/s"], env={"COLUMNS": "200"}).stdout
     assert f"mode set: {len(full['kept'])} of 16 modes" in text
+
+
+@pytest.mark.slow
+def test_modes_verify_proves_the_advised_set_and_draws_the_mode_sets(tmp_path):
+    """`modes --verify`: the advised basis within the tolerance of the reference in every scene (its errors
+    from the simulation, not the prediction), the kept modes without their residual vectors and the first k
+    modes outside it (the beam's spin loads need the residual vectors), JSON by its schema, the chart
+    written."""
+    import jsonschema
+    from ffrf_advisor.schemas import schema
+    result = runner.invoke(app, ["modes", str(DIR / "beam.ffrf.h5"), "--speed", "300rad/s", "--scene", "spin-up",
+                                 "--verify", "--figures", str(tmp_path), "--json"])
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    jsonschema.validate(data, schema("modes"))
+    proof = data["verification"]
+    worst = {b["basis"]: b["worst_error"] for b in proof["bases"]}
+    assert proof["verdict"] == "verified" and worst["advised"] <= data["tolerance"]
+    assert worst["advised modes only"] > data["tolerance"] and all(
+        v > data["tolerance"] for k, v in worst.items() if k.startswith("first"))
+    assert (tmp_path / "mode_sets_work_precision.png").stat().st_size > 10_000

@@ -461,30 +461,53 @@ def modes(body: Path = typer.Argument(..., help="Body file (with FE data: residu
                                                                              "(.ffrf.h5): kept modes and "
                                                                              "residual vectors."),
           force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT."),
+          verify: bool = typer.Option(False, "--verify", help="Prove the advised set by simulation against all "
+                                                              "modes plus all residual vectors (docs/modes.md)."),
+          figures: Optional[Path] = typer.Option(None, "--figures", help="With --verify: directory for the "
+                                                                          "mode sets' work-precision chart."),
           as_json: ModesJson = False, *, args: AnalysisArgs):
     """Which modes the scenes need (theory 12): modes in their band or carrying their loads, residual vectors
-    where the static error is above the tolerance, the predicted error and the cost saved."""
+    where the static error is above the tolerance, the predicted error and the cost saved; --verify proves it."""
     from .io import write_body
     from .io.atomic import check_target
     from .modeset import INERTIAL_SCENES, advise_modes, inertia_loads, reduced_body
-    from .report.modes_out import modes_json, modes_report
+    from .report.modes_out import modes_json, modes_report, proof_json, proof_report
     names = tuple(scene or INERTIAL_SCENES)
     if unknown := [n for n in names if n not in SCENES]:
         raise FFRFError(f"--scene {unknown[0]!r}: expected one of {', '.join(SCENES)}")
     if output is not None:
         check_target(output, force)
         _writable(output)
+    if figures is not None and not verify:
+        raise FFRFError("--figures: expected --verify too (the chart is of the simulation)")
     result = run_analysis(args.read(body), args.options(_note))
     loads = inertia_loads(result.body)
     advice = advise_modes(result, names, f_max=f_max, loads=loads)
     if output is not None:
         write_body(reduced_body(result.body, advice, loads, str(body)), output, overwrite=force)
+    proof = _mode_set_proof(result, advice, loads, names, figures) if verify else None
     if as_json:
-        _print_json(modes_json(advice, result.body.name, str(body), None if output is None else str(output)))
+        data = modes_json(advice, result.body.name, str(body), None if output is None else str(output))
+        _print_json(data if proof is None else {**data, "verification": proof_json(proof)})
         return
     modes_report(out(), advice, result.body.name)
+    if proof is not None:
+        proof_report(out(), proof)
     if output is not None:
         notes().print(f"wrote {output}: {advice.size} basis vectors", markup=False, highlight=False)
+
+
+def _mode_set_proof(result, advice, loads, names, figures: Optional[Path]):
+    """verify.modeset.prove with a progress bar, and its chart written into ``figures`` when given."""
+    from .report.console import step_bar
+    from .report.modes_out import proof_figure
+    from .verify.modeset import prove
+    with step_bar(notes()) as progress:
+        proof = prove(result, advice, loads, names, progress)
+    if figures is not None:
+        figures.mkdir(parents=True, exist_ok=True)
+        proof_figure(proof, figures, f"{result.body.name}: mode sets against the reference")
+    return proof
 
 
 @app.command("schema")

@@ -62,3 +62,56 @@ def modes_report(console: Console, adv: ModeAdvice, name: str) -> None:
                  ("case", "energy error", "stress error", "residual vector"),
                  [(c.case, _num(c.energy, ".2g"), _num(c.stress, ".2g"), "yes" if c.residual else "no")
                   for c in adv.cases])
+
+
+def _worst(runs) -> float:
+    return max((max(r.errors.values()) for r in runs), default=0.0)
+
+
+def proof_json(proof) -> dict:
+    """``modes --verify``: the verdict, each basis' size and worst error at the tightest tolerance, every run."""
+    from ..verify.modeset import RTOLS
+    return {"verdict": proof.verdict, "text": proof.text, "terms": list(proof.terms), "rtols": list(RTOLS),
+            "bases": [{"basis": name, "size": size, "worst_error": json_number(_worst(proof.at(name)))
+                       if name != "reference" else 0.0} for name, size in proof.sizes.items()],
+            "runs": [{"basis": r.basis, "size": r.size, "scene": r.scene, "rtol": r.rtol,
+                      "errors": {k: json_number(v) for k, v in r.errors.items()}, "evaluations": r.nfev,
+                      "cost": r.cost} for r in proof.runs],
+            "rk4_cost": [{"basis": b, "scene": s, "cost": c} for (b, s), c in proof.rk4_cost.items()]}
+
+
+def proof_report(console: Console, proof) -> None:
+    """One row per basis: size, worst error over the scenes at the tightest tolerance, its adaptive
+    evaluations and its RK4 cost at its stable step against the reference's; the verdict below."""
+    from ..verify.modeset import RTOLS
+    scenes = sorted({r.scene for r in proof.runs})
+    ref_rk4 = sum(proof.rk4_cost[("reference", s)] for s in scenes)
+    rows = []
+    for name, size in proof.sizes.items():
+        runs = proof.at(name)
+        rows.append((name, str(size), "-" if name == "reference" else f"{_worst(runs):.2g}",
+                     "-" if name == "reference" else str(sum(r.nfev for r in runs)),
+                     f"{sum(proof.rk4_cost[(name, s)] for s in scenes) / ref_rk4:.3g}"))
+    fitted_table(console, f"mode sets by simulation (DOP853 rtol {RTOLS[-1]:g}, against the reference; "
+                          f"{len(scenes)} scenes)",
+                 ("basis", "size", "worst error", "evaluations", "RK4 cost / reference"), rows, left=("basis",))
+    console.print(f"verdict: {proof.verdict}: {proof.text}", highlight=False)
+
+
+def proof_figure(proof, directory, title: str) -> list:
+    """The work-precision chart of the mode sets: worst error over the scenes against their summed cost
+    (multiply-adds), one line per basis through its tolerances; written as PNG and SVG."""
+    from ..verify.modeset import RTOLS
+    from .verify_figures import plt, save
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for name in proof.sizes:
+        if name == "reference":
+            continue
+        points = [(sum(r.cost for r in proof.at(name, t)), _worst(proof.at(name, t))) for t in RTOLS]
+        ax.loglog(*zip(*points), marker="o", label=f"{name} ({proof.sizes[name]})")
+    ax.axhline(proof.tolerance, color="grey", linestyle=":", label=f"tolerance {proof.tolerance:g}")
+    ax.set_xlabel("cost [multiply-adds of the right-hand sides]")
+    ax.set_ylabel("worst relative error over the scenes")
+    ax.set_title(title)
+    ax.legend(fontsize=8)
+    return save(fig, directory, "mode_sets_work_precision")

@@ -498,10 +498,10 @@ def modes(body: Path = typer.Argument(..., help="Body file (with FE data: residu
 
 
 def _mode_set_proof(result, advice, loads, names, figures: Optional[Path]):
-    """verify.modeset.prove with a progress bar, and its chart written into ``figures`` when given."""
+    """modeset_proof.prove with a progress bar, and its chart written into ``figures`` when given."""
     from .report.console import step_bar
     from .report.modes_out import proof_figure
-    from .verify.modeset import prove
+    from .modeset_proof import prove
     with step_bar(notes()) as progress:
         proof = prove(result, advice, loads, names, progress)
     if figures is not None:

@@ -70,7 +70,7 @@ def _worst(runs) -> float:
 
 def proof_json(proof) -> dict:
     """``modes --verify``: the verdict, each basis' size and worst error at the tightest tolerance, every run."""
-    from ..verify.modeset import RTOLS
+    from ..modeset_proof import RTOLS
     return {"verdict": proof.verdict, "text": proof.text, "terms": list(proof.terms), "rtols": list(RTOLS),
             "bases": [{"basis": name, "size": size, "worst_error": json_number(_worst(proof.at(name)))
                        if name != "reference" else 0.0} for name, size in proof.sizes.items()],
@@ -83,7 +83,7 @@ def proof_json(proof) -> dict:
 def proof_report(console: Console, proof) -> None:
     """One row per basis: size, worst error over the scenes at the tightest tolerance, its adaptive
     evaluations and its RK4 cost at its stable step against the reference's; the verdict below."""
-    from ..verify.modeset import RTOLS
+    from ..modeset_proof import RTOLS
     scenes = sorted({r.scene for r in proof.runs})
     ref_rk4 = sum(proof.rk4_cost[("reference", s)] for s in scenes)
     rows = []
@@ -101,7 +101,7 @@ def proof_report(console: Console, proof) -> None:
 def proof_figure(proof, directory, title: str) -> list:
     """The work-precision chart of the mode sets: worst error over the scenes against their summed cost
     (multiply-adds), one line per basis through its tolerances; written as PNG and SVG."""
-    from ..verify.modeset import RTOLS
+    from ..modeset_proof import RTOLS
     from .verify_figures import plt, save
     fig, ax = plt.subplots(figsize=(7, 4.5))
     for name in proof.sizes:

@@ -15,15 +15,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..analysis import Analysis
-from ..body import FlexibleBody
-from ..modeset import InertiaLoads, ModeAdvice, reduced_body
-from ..sim.cost import rhs_cost
-from ..sim.integrate import rk4_limit
-from ..sim.model import N_ROT, build_model
-from .measures import relative_angle
-from .runner import REF_RTOL, run_scene
-from .scenes import make_scenes
+from .analysis import Analysis
+from .body import FlexibleBody
+from .errors import FFRFError
+from .modeset import InertiaLoads, ModeAdvice, reduced_body
+from .sim.cost import rhs_cost
+from .sim.integrate import rk4_limit
+from .sim.model import N_ROT, build_model
+from .verify.measures import relative_angle
+from .verify.runner import REF_RTOL, run_scene
+from .verify.scenes import make_scenes
 
 MEASURES = ("w", "orientation", "displacement", "stress_peak")
 RTOLS = (1e-5, 1e-7, 1e-9)  # the work-precision points of every basis
@@ -61,7 +62,7 @@ class ModeSetProof:
 
 def bases(body: FlexibleBody, advice: ModeAdvice, loads: InertiaLoads) -> dict[str, FlexibleBody]:
     """The reference and the candidate bases by name (first-k for k at a quarter, half and the advised size)."""
-    from ..augment import with_residual_vectors
+    from .augment import with_residual_vectors
     out = {"reference": with_residual_vectors(body, loads.U, "mode-set reference: all six centrifugal cases "
                                               "as residual vectors"),
            "advised": reduced_body(body, advice, loads)}
@@ -81,7 +82,7 @@ def displacement(body: FlexibleBody, q: np.ndarray) -> np.ndarray:
 def peak_stress(body: FlexibleBody, q: np.ndarray) -> float:
     """The largest nodal von Mises stress over the run, recovered from the nodal stress tensors of the modes
     (``fe.stress.nodal_stress``: tensors add, von Mises does not), in samples of 50 at a time."""
-    from ..fe.stress import nodal_stress, von_mises
+    from .fe.stress import nodal_stress, von_mises
     S = nodal_stress(body.fe.mesh, body.fe.material, body.fe.Phi)  # (n, 3, 3, nf)
     return float(max(von_mises(np.einsum("nabp,tp->tnab", S, q[a:a + 50])).max() for a in range(0, len(q), 50)))
 
@@ -104,7 +105,6 @@ def prove(a: Analysis, advice: ModeAdvice, loads: InertiaLoads, names, progress=
     """Run ``names`` on every basis (``bases``) and judge the advised one at the tightest tolerance."""
     body = a.body
     if loads.U is None or body.fe is None or body.fe.material is None:
-        from ..errors import FFRFError
         raise FFRFError("modes --verify: expected nodal FE data with the material (the bases are compared in "
                         "nodal displacements and stresses)")
     all_bases = bases(body, advice, loads)

@@ -76,6 +76,7 @@ def test_html_parses_and_carries_the_level_and_every_figure(beam_html):
     assert page.tags.count("svg") + page.tags.count("img") >= FIGURES
     for title in ("Fig. 3", "Fig. 5", "Fig. 7", "Fig. 8", "Fig. 10", "Campbell", "at q_max"):
         assert title in text, title
+    assert "Mode set (theory 12)" in text and "static energy share" in text and "keep: in band" in text
 
 
 def test_html_references_nothing_outside_itself(beam_html):

@@ -176,6 +176,28 @@ def pictures(a: Analysis) -> Section:
     return Section("Pictures", blocks)
 
 
+def mode_set_section(a: Analysis) -> Section:
+    """Which modes the inertial scenes need (theory 12, the command ``modes``): the advice, per scene, per mode,
+    per load case."""
+    from ..modeset import INERTIAL_SCENES, advise_modes
+    from .modes_out import modes_json
+    d = modes_json(advise_modes(a, INERTIAL_SCENES), a.body.name, "")
+    pair = lambda x, y: f"{_num(x)} / {_num(y)}"  # noqa: E731
+    return Section("Mode set (theory 12)", [
+        ("fields", [("advice", d["summary"]), ("loads", d["loads_source"]), ("band", f"{d['band']:g} x f_exc")]),
+        *([("items", d["notes"])] if d["notes"] else []),
+        ("table", (("scene", "load cases", "f_exc", "set by", "predicted error without / with residual vectors"),
+                   [(s["scene"], " ".join(s["cases"]), _num(s["f_exc_hz"], "Hz"), s["excited_by"],
+                     pair(s["predicted_error"], s["predicted_error_with_residual_vectors"])) for s in d["scenes"]])),
+        ("table", (("mode", "f", "static energy share", "stress share", "decision"),
+                   [(str(m["mode"]), _num(m["f_hz"], "Hz"), _num(m["energy_share"]), _num(m["stress_share"]),
+                     m["reason"]) for m in d["modes"]])),
+        ("table", (("load case", "energy error", "stress error", "residual vector"),
+                   [(c["case"], _num(c["energy_error"]), _num(c["stress_error"]),
+                     "yes" if c["residual_vector"] else "no") for c in d["cases"]])),
+    ])
+
+
 def verification_section(study: dict) -> Section:
     """The verification (verify JSON, schema verify.json) and its figures."""
     v = study["verdict"]
@@ -201,7 +223,8 @@ def verification_section(study: dict) -> Section:
 def body_sections(a: Analysis, source: str, study: dict | None = None, figures: bool = True) -> list[Section]:
     """One body's part; ``figures=False`` in a set, whose comparison already draws every body's series."""
     d = analysis_json(a, source)
-    sections = [verdict(a, d, study), header(a, source), options_section(a, d), paper_tables([a])]
+    sections = [verdict(a, d, study), header(a, source), options_section(a, d), paper_tables([a]),
+                mode_set_section(a)]
     sections += [paper_figures([a]), pictures(a)] if figures else [pictures(a)]
     if study is not None:
         sections.append(verification_section(study))

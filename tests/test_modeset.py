@@ -12,6 +12,7 @@ from ffrf_advisor.adequacy import basis_errors, centrifugal_loads, static_deflec
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.augment import with_residual_vectors
 from ffrf_advisor.body import Provenance
+from ffrf_advisor.checks import run_checks
 from ffrf_advisor.cli import app
 from ffrf_advisor.fe.assembly import full_mass, mass_matrix, stiffness_matrix
 from ffrf_advisor.fe.material import STEEL
@@ -71,6 +72,8 @@ def test_the_shares_of_all_modes_sum_to_one_and_the_error_is_the_projection_erro
         rest = u - Phi @ (loads.P[kept, j] / b.eigenvalues[kept])
         direct = np.sqrt(rest @ (K @ rest) / (u @ (K @ u)))
         assert np.sqrt(max(0.0, 1 - p[kept, j].sum())) == pytest.approx(direct, rel=1e-6, abs=1e-7)
+    first_k = np.sqrt(np.clip(1 - np.cumsum(p, axis=0), 0, None))  # e of the first k modes, k = 1 .. all
+    assert np.all(np.diff(first_k, axis=0) <= 1e-12) and np.all(first_k[-1] <= 1e-4)  # sqrt of 1e-9 round-off
 
 
 def test_residual_vectors_remove_the_static_error_and_the_step_ratio_is_the_reduced_bodys(beam, advised):
@@ -88,13 +91,35 @@ def test_residual_vectors_remove_the_static_error_and_the_step_ratio_is_the_redu
             assert errors[j] <= 1e-5
     assert np.sqrt(beam.eigenvalues.max() / r.eigenvalues.max()) == pytest.approx(adv.step_ratio, rel=1e-5)
     assert "kept modes" in r.provenance.notes[-1] and "residual vectors" in r.provenance.notes[-1]
+    kept = beam.eigenvalues[list(adv.kept)]  # unchanged by the residual vectors (the eigensolver's 1e-7)
+    assert np.abs(r.eigenvalues[:, None] / kept[None, :] - 1).min(axis=0).max() <= 1e-6
+    assert all(c.passed for c in run_checks(r))
+    nodal = r.fe.integrals()  # the stored invariants are the nodal sums over the new basis (round-off)
+    scale = {"Ibar": np.abs(nodal.Ibar).max(), "Sbar": np.abs(nodal.Sbar).max(),
+             "mode_sum": np.sqrt(r.mass)}  # sum_i m_i phi_i: at most sqrt(mass) for unit modal mass, ~0 at the CoM
+    for name, size in scale.items():
+        assert np.abs(getattr(r.integrals, name) - getattr(nodal, name)).max() <= 1e-12 * size, name
+
+
+def test_a_beam_spun_across_needs_the_axial_residual_vector_and_about_its_length_none(advised):
+    """Spin about a transverse axis stretches the beam at tens of N/mm^2: the kept modes miss some of it, so
+    its case gets a residual vector; about the long axis the kept modes miss the widening almost entirely,
+    but it is 0.1 N/mm^2 at 300 rad/s, below a tenth of sigma_allow: it counts for little, no residual
+    vector (theory 10's floor). Mode 1, the first bending mode, is in every scene's band."""
+    a, loads, adv = advised
+    long_axis = int(np.argmin(np.diag(a.body.I0)))
+    by_case = {c.case: c for c in adv.cases}
+    along = by_case[f"w{long_axis + 1}w{long_axis + 1}"]
+    across = [c for name, c in by_case.items() if name[1] == name[3] and name[1] != str(long_axis + 1)]
+    assert along.energy > 0.5 and along.weight < 0.01 and not along.residual
+    assert across and all(c.residual and c.weight == 1.0 for c in across) and 0 in adv.kept
 
 
 def test_modes_in_band_are_kept_and_a_high_f_max_keeps_every_mode(advised):
     a, loads, adv = advised
     for m in adv.modes:
         inside = any(m.f_hz <= adv.band * s.f_exc for s in adv.scenes)
-        assert m.keep == (inside or m.participation > adv.tolerance)
+        assert m.keep == (inside or m.participation > adv.tolerance or "spun" in m.reason)
     wide = advise_modes(a, f_max=1e6, loads=loads)
     assert wide.kept == tuple(range(a.body.nf)) and all(m.reason.startswith("keep: in band") for m in wide.modes)
 
@@ -134,9 +159,10 @@ def test_the_advised_set_carries_a_spin_up_as_the_reference_does(beam, advised):
     """Proof by simulation (theory 12): the prescribed spin-up about each stable axis, run with the advised
     term set on the reference (all modes and the residual vectors of all six cases), the advised body and the
     kept modes alone, compared in what both bases express: nodal deflections. The advised body's peak
-    deflection and its energy-norm error over the run stay within the tolerance; the kept modes alone err in
-    energy norm by the predicted error (within a factor 1.5: the prediction is quasi-static; the reference at
-    rtol 1e-10)."""
+    deflection stays within the tolerance (relative to at least the proof's floor); the kept modes alone err
+    in energy norm by the predicted error before its weight (within a factor 1.5: the prediction is
+    quasi-static; the reference at rtol 1e-10)."""
+    from ffrf_advisor.modeset_proof import floors
     from ffrf_advisor.sim.model import build_model
     from ffrf_advisor.verify.runner import run_scene
     from ffrf_advisor.verify.scenes import make_scenes
@@ -153,11 +179,11 @@ def test_the_advised_set_carries_a_spin_up_as_the_reference_does(beam, advised):
             u[name] = np.einsum("iap,tp->tia", body.fe.Phi, run.y[:, 7:7 + body.nf]).reshape(len(run.t), -1)
         energy = lambda v: np.sqrt(np.einsum("ti,ti->t", v, (K @ v.T).T)).max()  # noqa: E731
         peak = {name: np.sqrt((v.reshape(len(v), -1, 3) ** 2).sum(axis=2)).max() for name, v in u.items()}
-        predicted = adv.predicted[[s.label for s in adv.scenes].index(scene.label)]
-        assert abs(peak["advised"] - peak["reference"]) <= adv.tolerance * peak["reference"]
-        assert energy(u["advised"] - u["reference"]) <= adv.tolerance * energy(u["reference"])
+        i = [s.label for s in adv.scenes].index(scene.label)
+        raw = adv.predicted[i][0] / adv.scenes[i].weights[0]
+        assert abs(peak["advised"] - peak["reference"]) <= adv.tolerance * max(peak["reference"], floors(a)[0])
         bare = energy(u["bare"] - u["reference"]) / energy(u["reference"])
-        assert predicted[0] / 1.5 <= bare <= 1.5 * predicted[0], (scene.label, bare, predicted)
+        assert raw / 1.5 <= bare <= 1.5 * raw, (scene.label, bare, raw)
 
 
 def test_analyze_names_the_mode_set_that_modes_advises_from_the_cache_alone():
@@ -191,3 +217,21 @@ def test_modes_verify_proves_the_advised_set_and_draws_the_mode_sets(tmp_path):
     assert worst["advised modes only"] > data["tolerance"] and all(
         v > data["tolerance"] for k, v in worst.items() if k.startswith("first"))
     assert (tmp_path / "mode_sets_work_precision.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["beam", "conrod"])
+def test_the_proof_verifies_the_advised_body_and_finds_a_dropped_mode_unsafe(name):
+    """On two samples the advised basis meets the tolerance against the all-mode reference in the spin-up
+    and torque-pulse; without the kept mode that carries the most of an applied load case it does not (the
+    beam's in-band bending modes carry none of these loads: a symmetric body spun about a principal axis)."""
+    from ffrf_advisor.modeset_proof import prove
+    body = read_body(DIR / f"{name}.ffrf.h5", load_fe=True)
+    a = analyze(body, Options(situation=Situation(w_op=300.0)))
+    loads = inertia_loads(body)
+    scenes = ("spin-up", "torque-pulse")
+    adv = advise_modes(a, scenes, loads=loads)
+    assert prove(a, adv, loads, scenes).verdict == "verified"
+    carrier = max(adv.kept, key=lambda k: adv.modes[k].participation)
+    fewer = replace(adv, kept=tuple(k for k in adv.kept if k != carrier), residual_cases=())
+    assert prove(a, fewer, loads, scenes).verdict == "unsafe"

@@ -29,6 +29,7 @@ from .sim.cost import rhs_cost
 from .sim.model import build_model
 from .significance import f_cf1
 from .units import TIME
+from .verify.measures import FLOOR
 
 CASES = tuple(f"w{k + 1}w{l + 1}" for k, l in SYM_PAIRS)  # the six centrifugal load cases
 EULER = ("dw1/dt", "dw2/dt", "dw3/dt")  # no load on free modes at q = 0 (theory 12)
@@ -56,8 +57,8 @@ def modal_loads_from_invariants(body: FlexibleBody) -> np.ndarray:
 class InertiaLoads:
     """The six centrifugal load cases of a body at unit spin: modal projections P (nf, 6) and, where known,
     the compliances ``C = F^T K^+ F`` (6, 6; NaN where unknown), the static deflections U (3n, 6) with their
-    mass products ``U^T M U``, the nodal von Mises stress of each U (n, 6); ``source`` says where they came
-    from."""
+    mass products ``U^T M U``, the nodal von Mises stress of each U (n, 6) and its peak ``sigma`` (6,; NaN
+    where unknown); ``source`` says where they came from."""
 
     P: np.ndarray
     C: np.ndarray
@@ -65,6 +66,7 @@ class InertiaLoads:
     U: np.ndarray | None = None
     UMU: np.ndarray | None = None
     stress: np.ndarray | None = None
+    sigma: np.ndarray = field(default_factory=lambda: np.full(6, np.nan))  # peak von Mises per unit spin^2
 
     @property
     def compliance(self) -> np.ndarray:
@@ -82,13 +84,14 @@ def inertia_loads(body: FlexibleBody) -> InertiaLoads:
     principal compliances the body file caches (theory 11) and the others unknown."""
     fe = body.fe
     if fe is None or (fe.K is None and fe.material is None) or fe.rotary is not None:
-        C = np.full((6, 6), np.nan)
+        C, sigma = np.full((6, 6), np.nan), np.full(6, np.nan)
         if body.static_centrifugal is not None:
             C[:3, :3][np.diag_indices(3)] = body.static_centrifugal.compliance
+            sigma[:3] = body.static_centrifugal.sigma
         return InertiaLoads(modal_loads_from_invariants(body), C,
                             "invariants (W1); compliances of the principal cases from the file's cache"
                             if body.static_centrifugal is not None else "invariants (W1): no compliance, "
-                            "the static error cannot be bounded")
+                            "the static error cannot be bounded: the frequency band decides alone", sigma=sigma)
     from .adequacy import centrifugal_loads, static_deflections
     from .fe.assembly import full_mass, stiffness_matrix
     X = fe.mesh.points
@@ -100,7 +103,8 @@ def inertia_loads(body: FlexibleBody) -> InertiaLoads:
     stress = None if fe.material is None else _von_mises(fe, U)
     C = F.T @ U
     return InertiaLoads(P, (C + C.T) / 2, "FE nodal sums (K^+ f by one factorisation)", U,
-                        U.T @ (full_mass(fe.Ms) @ U), stress)
+                        U.T @ (full_mass(fe.Ms) @ U), stress,
+                        np.full(6, np.nan) if stress is None else stress.max(axis=0))
 
 
 def _von_mises(fe, U: np.ndarray) -> np.ndarray:
@@ -129,6 +133,7 @@ class SceneDemand:
     f_exc: float
     excited_by: str
     started: tuple[int, ...] = ()
+    weights: tuple[float, ...] = ()  # what its relative errors count for along each spin (_weight)
 
 
 def scene_demands(a: Analysis, names, tolerance: float, f_max: float | None = None) -> list[SceneDemand]:
@@ -184,13 +189,14 @@ class ModeChoice:
 @dataclass(frozen=True)
 class CaseError:
     """The kept modes' static error of one applied load case: energy norm and peak von Mises stress (None
-    where they cannot be bounded), and whether its static deflection joins as a residual vector (then both
-    errors are zero: the static response lies in the basis)."""
+    where they cannot be bounded), the weight they count with (``weight``) and whether its static deflection
+    joins as a residual vector (then both errors are zero: the static response lies in the basis)."""
 
     case: str
     energy: float | None
     stress: float | None
     residual: bool
+    weight: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -268,12 +274,16 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
     share = _stress_share(body, loads)
     modes = [_choice(k, body, scenes, p, share, applied, tol, band) for k in range(body.nf)]
     kept, notes = tuple(m.mode for m in modes if m.keep), []
-    cases = [_case_error(j, kept, body, loads, p, tol) for j in applied]
+    floor = FLOOR * a.amplitudes.sigma_allow
+    weight = {j: _weight(loads, [j], floor, max(s.speed for s in scenes if j in s.cases) * np.eye(3)[0])
+              for j in applied}
+    cases = [_case_error(j, kept, body, loads, p, tol, weight[j]) for j in applied]
     residual = tuple(j for j, c in zip(applied, cases) if c.residual)
     if not kept and not residual:
         kept = (0,)
         notes.append("no mode is needed within the tolerance; mode 1 kept so that the body has one")
-        cases = [_case_error(j, kept, body, loads, p, tol) for j in applied]
+        cases = [_case_error(j, kept, body, loads, p, tol, weight[j]) for j in applied]
+    scenes = [replace(s, weights=tuple(_weight(loads, s.cases, floor, w) for w in s.directions)) for s in scenes]
     top = float(body.frequencies_hz[-1])
     notes += [f"{s.label} excites up to {s.f_exc:.4g} Hz; its band ({band:g} x) ends above the file's last mode "
               f"({top:.4g} Hz): compute more modes to bound its error" for s in scenes if band * s.f_exc > top]
@@ -336,9 +346,22 @@ def _choice(k: int, body, scenes, p, share, applied, tol: float, band: float) ->
     return ModeChoice(k, f, float(pk), float(sk), keep, reason)
 
 
-def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float) -> CaseError:
-    """The kept modes' static errors of case j; a residual vector where one exceeds the tolerance (FE data
-    give it; the prediction needs only its modal part)."""
+def _weight(loads: InertiaLoads, cases, floor: float, w: np.ndarray) -> float:
+    """What a relative error of these cases counts for at spin w: their stress there (a bound, ``sum_j |c_j(w)|
+    sigma_j``; a single case at the speed |w|) over the larger of it and the floor (a tenth of sigma_allow, as
+    verify's errors: verify.measures.FLOOR); 1 where a stress is unknown. A spin that barely stresses the body
+    needs no residual vector for it (docs/modes.md)."""
+    ix = list(cases)
+    c = np.abs(coefficients(w))[ix] if len(ix) > 1 else np.array([float(np.dot(w, w))])
+    sigma = float(c @ loads.sigma[ix])
+    if not np.isfinite(sigma) or sigma <= 0:
+        return 1.0
+    return float(sigma / max(sigma, floor))
+
+
+def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float, weight: float) -> CaseError:
+    """The kept modes' static errors of case j; a residual vector where one, times the case's weight, exceeds
+    the tolerance (FE data give it; the prediction needs only its modal part)."""
     ix = list(kept)
     energy = float(np.sqrt(max(0.0, 1.0 - p[ix, j].sum()))) if loads.bounded[j] else None
     stress = None
@@ -348,7 +371,7 @@ def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float) -> CaseE
         rest = loads.U[:, j] - body.fe.Phi[:, :, ix].reshape(3 * n, len(ix)) @ q
         stress = float(_von_mises(body.fe, rest[:, None]).max() / loads.stress[:, j].max())
     worst = max((e for e in (energy, stress) if e is not None), default=None)
-    return CaseError(CASES[j], energy, stress, worst is not None and worst > tol)
+    return CaseError(CASES[j], energy, stress, worst is not None and worst * weight > tol, weight)
 
 
 def _predicted(scene: SceneDemand, kept, residual, loads: InertiaLoads, model, f_hz: np.ndarray) -> tuple:
@@ -360,6 +383,7 @@ def _predicted(scene: SceneDemand, kept, residual, loads: InertiaLoads, model, f
     runs = [_spun(np.asarray(w), scene, kept, residual, loads, model, f_hz) for w in scene.directions]
     if any(r is None for r in runs):
         return None, None, None, np.zeros(model.nf)
+    runs = [(g * r[0], g * r[1], g * r[2], r[3]) for g, r in zip(scene.weights, runs)]
     worst = max(runs, key=lambda r: r[2])
     return max(r[0] for r in runs), max(r[1] for r in runs), worst[2], worst[3]
 

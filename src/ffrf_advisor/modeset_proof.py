@@ -5,7 +5,8 @@ residual vectors. Candidates: the advised body (``modeset.reduced_body``), the a
 residual vectors, and the first k modes for several k. Every basis runs the same scenes with the same term
 set (compiled DOP853); modal coordinates differ between bases, so the runs are compared in what every basis
 expresses: the spin w, the orientation, the largest nodal displacement and the peak von Mises stress
-recovered from the nodal stress tensors, each relative to the reference's amplitude (theory 10). Cost:
+recovered from the nodal stress tensors, each relative to the reference's amplitude (theory 10; the last two
+to at least a tenth of the deflection at q_max and of sigma_allow, verify's floors). Cost:
 right-hand-side evaluations times the cost of one (``sim.cost``), at several tolerances for the
 work-precision chart, and the RK4 cost at each basis' stable step ``2 sqrt 2 / Omega_max``.
 """
@@ -22,7 +23,7 @@ from .modeset import InertiaLoads, ModeAdvice, reduced_body
 from .sim.cost import rhs_cost
 from .sim.integrate import rk4_limit
 from .sim.model import N_ROT, build_model
-from .verify.measures import relative_angle
+from .verify.measures import FLOOR, relative_angle
 from .verify.runner import REF_RTOL, run_scene
 from .verify.scenes import make_scenes
 
@@ -92,13 +93,21 @@ def _measures(body: FlexibleBody, y: np.ndarray) -> dict:
     return {"p": y[:, :4], "w": y[:, 4:7], "d": displacement(body, q), "s": peak_stress(body, q)}
 
 
-def _errors(m: dict, ref: dict) -> dict:
-    """Errors of the measures against the reference's, each relative to its amplitude (theory 10)."""
-    scale = lambda x: max(float(np.abs(x).max()), 1e-300)  # noqa: E731
+def floors(a: Analysis) -> tuple[float, float]:
+    """(displacement, stress) below which a difference does not count in full (theory 10, verify.measures):
+    a tenth of the largest deflection a mode reaches at its q_max, and a tenth of sigma_allow."""
+    reach = np.asarray(a.amplitudes.q_max) * a.body.fe.max_deflection()
+    return FLOOR * float(reach.max()), FLOOR * float(a.amplitudes.sigma_allow)
+
+
+def _errors(m: dict, ref: dict, floor: tuple[float, float]) -> dict:
+    """Errors of the measures against the reference's, each relative to its amplitude (theory 10), the
+    displacement and the stress at least to their floors."""
+    scale = lambda x, least=0.0: max(float(np.abs(x).max()), least, 1e-300)  # noqa: E731
     return {"w": float(np.linalg.norm(m["w"] - ref["w"], axis=1).max() / scale(np.linalg.norm(ref["w"], axis=1))),
             "orientation": float(relative_angle(ref["p"], m["p"]).max()),
-            "displacement": float(np.abs(m["d"] - ref["d"]).max() / scale(ref["d"])),
-            "stress_peak": abs(m["s"] - ref["s"]) / max(ref["s"], 1e-300)}
+            "displacement": float(np.abs(m["d"] - ref["d"]).max() / scale(ref["d"], floor[0])),
+            "stress_peak": abs(m["s"] - ref["s"]) / scale(ref["s"], floor[1])}
 
 
 def prove(a: Analysis, advice: ModeAdvice, loads: InertiaLoads, names, progress=None) -> ModeSetProof:
@@ -108,7 +117,7 @@ def prove(a: Analysis, advice: ModeAdvice, loads: InertiaLoads, names, progress=
         raise FFRFError("modes --verify: expected nodal FE data with the material (the bases are compared in "
                         "nodal displacements and stresses)")
     all_bases = bases(body, advice, loads)
-    terms = advice.terms
+    terms, floor = advice.terms, floors(a)
     runs, rk4 = [], {}
     scenes = make_scenes(names, a)
     total, done = len(scenes) * (1 + (len(all_bases) - 1) * len(RTOLS)), 0
@@ -120,7 +129,7 @@ def prove(a: Analysis, advice: ModeAdvice, loads: InertiaLoads, names, progress=
             for rtol in (RTOLS if name != "reference" else ()):
                 run = _run(b, terms, sc, rtol)
                 errs = ({k: np.inf for k in MEASURES} if run.failed or len(run.t) != len(ref.t)
-                        else _errors(_measures(b, run.y), ref_m))
+                        else _errors(_measures(b, run.y), ref_m, floor))
                 runs.append(BasisRun(name, b.nf, sc.label, rtol, errs, run.nfev, run.nfev * rhs_cost(terms, b.nf)))
                 done += 1
                 if progress is not None:

@@ -96,8 +96,8 @@ def test_sample_refuses_a_bad_target_before_building(tmp_path):
     """Issue 23, item 12: a directory as target was refused only after the FE build (minutes)."""
     result = runner.invoke(app, ["sample", "carbody", "-o", str(tmp_path)])
     assert result.exit_code == 2 and "expected a regular file to write, got a directory" in result.output
-    read_only = runner.invoke(app, ["sample", "carbody", "-o", str(tmp_path / "x.vtu")])  # issue 25
-    assert read_only.exit_code == 2 and read_only.stderr == f"error: {tmp_path / 'x.vtu'}: format meshio can be " \
+    read_only = runner.invoke(app, ["sample", "carbody", "-o", str(tmp_path / "x.xdmf")])  # issue 25
+    assert read_only.exit_code == 2 and read_only.stderr == f"error: {tmp_path / 'x.xdmf'}: format meshio can be " \
         "read but not written\n"  # one line, and no step of the FE build reported before it
 
 
@@ -151,3 +151,45 @@ def test_settings_for_adams(body, speed, formulation, pattern):
     assert f"INVARIANTS={pattern}" in text and data["source"].split(";")[0] in text and "guess" in text
     bad = runner.invoke(app, ["settings", path, "--solver", "simpack"])
     assert bad.exit_code == 2
+
+
+def test_vtu_output_reads_back_to_the_same_body(tmp_path, beam):
+    """`convert BODY out.vtu` (issue 27): modes, nodal von Mises, the six static centrifugal deflections as
+    point data, eigenvalues, frequencies, density, material and units as field data; read back (meshio reader)
+    the eigenvalues are the same numbers, the invariants equal to round-off (1e-12 relative; the mass matrix
+    is reassembled from the density), the static response to the refactorisation's round-off (1e-10)."""
+    out = tmp_path / "beam.vtu"
+    result = runner.invoke(app, ["convert", str(SAMPLES / "beam.ffrf.h5"), str(out)])
+    assert result.exit_code == 0, result.output
+    mesh = meshio.read(out)
+    assert {"mode_16", "von_mises_16", "static_w1w1", "static_w2w3"} <= set(mesh.point_data)
+    assert mesh.field_data["frequencies_hz"] == pytest.approx(beam.frequencies_hz, rel=1e-15)
+    back = read_body(out, load_fe=True)
+    assert np.array_equal(back.eigenvalues, beam.eigenvalues)
+    for name in ("I", "Ibar", "Sbar"):
+        want = getattr(beam.integrals, name)
+        assert np.abs(getattr(back.integrals, name) - want).max() <= 1e-12 * np.abs(want).max(), name
+    assert np.abs(back.sigma_max - beam.sigma_max).max() <= 1e-12 * beam.sigma_max.max()
+    assert back.static_centrifugal.compliance == pytest.approx(beam.static_centrifugal.compliance, rel=1e-10)
+    assert "units t-mm-N-s (field data units_si)" in back.provenance.notes[0]
+    assert "(field data)" in back.provenance.notes[-1]
+
+
+def test_vtu_output_refuses_what_a_mesh_cannot_hold(tmp_path, beam):
+    """An invariants-only body, a mass matrix that is not one density's, and other units in a file."""
+    inv = tmp_path / "beam.ffinv.json"
+    assert runner.invoke(app, ["convert", str(SAMPLES / "beam.ffrf.h5"), str(inv)]).exit_code == 0
+    none = runner.invoke(app, ["convert", str(inv), str(tmp_path / "a.vtu")])
+    assert none.exit_code == 2 and "invariants only" in none.output
+    from dataclasses import replace
+    from ffrf_advisor.io import write_body
+    from ffrf_advisor.errors import FFRFError
+    heavier = replace(beam, fe=replace(beam.fe, Ms=beam.fe.Ms.tolil()))
+    heavier.fe.Ms[0, 0] *= 2
+    with pytest.raises(FFRFError, match="not the consistent mass of a uniform density"):
+        write_body(replace(heavier, fe=replace(heavier.fe, Ms=heavier.fe.Ms.tocsr())), tmp_path / "b.vtu")
+    out = tmp_path / "c.vtu"
+    assert runner.invoke(app, ["convert", str(SAMPLES / "beam.ffrf.h5"), str(out)]).exit_code == 0
+    out.write_text(out.read_text().replace("1000.0 0.001 1.0", "1.0 1.0 1.0"))
+    bad = runner.invoke(app, ["info", str(out)])
+    assert bad.exit_code == 2 and "field_data/units_si: expected t-mm-N-s" in bad.output

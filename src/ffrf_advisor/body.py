@@ -14,6 +14,7 @@ from .units import TMM, Units, factor
 
 MASS_KINDS = ("consistent", "lumped", "unknown")
 SYM_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))  # the six centrifugal load cases kl (theory 9)
+CASES = tuple(f"w{k + 1}w{l + 1}" for k, l in SYM_PAIRS)  # their names (theory 12)
 
 
 def pairs_at(G: np.ndarray, w: np.ndarray) -> np.ndarray:

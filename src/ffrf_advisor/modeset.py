@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .analysis import Analysis
-from .body import SYM_PAIRS, FlexibleBody
+from .body import CASES, SYM_PAIRS, FlexibleBody
 from .errors import FFRFError
 from .sim.cost import rhs_cost
 from .sim.model import build_model
@@ -31,7 +31,6 @@ from .significance import f_cf1
 from .units import TIME
 from .verify.measures import FLOOR
 
-CASES = tuple(f"w{k + 1}w{l + 1}" for k, l in SYM_PAIRS)  # the six centrifugal load cases
 EULER = ("dw1/dt", "dw2/dt", "dw3/dt")  # no load on free modes at q = 0 (theory 12)
 BAND = 2.0        # modes up to BAND * f_exc respond dynamically (theory 12: the literature's 1.5-2)
 INERTIAL_SCENES = ("spin-up", "torque-pulse", "minor-axis")  # scenes only the rigid motion drives

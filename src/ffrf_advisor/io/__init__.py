@@ -55,7 +55,7 @@ UNFORESEEN = (OSError, ValueError, KeyError, IndexError, TypeError, RuntimeError
 
 def check_reader_options(path, options: dict, fmt: str | None = None) -> None:
     """--eigenvalues/--density (reader options) apply to meshio meshes only: one line otherwise."""
-    if options and format_of(path, fmt).name != "meshio":
+    if options and format_of(path, fmt).name not in ("meshio", "vtu"):
         raise FFRFError(f"{path}: --{'/--'.join(options)} apply to meshio meshes only")
 
 

@@ -2,10 +2,19 @@
 
 Point data ``mode_1`` .. ``mode_n`` (n x 3 each), optional ``von_mises_1`` ..
 ``von_mises_n``; field data ``eigenvalues`` (or the --eigenvalues option) and
-``density`` (or --density). The consistent mass matrix is assembled from the
+``density`` (or --density), optional ``young`` and ``poisson`` (or the options)
+and ``units_si`` (kg, m, s per mass, length and time unit: t-mm-N-s is 1000,
+0.001, 1, the only units read). The consistent mass matrix is assembled from the
 solid cells the FE module supports (hexahedron, hexahedron20,
 hexahedron27); lower-dimensional cells (boundary faces, lines, points) are
 ignored; any other solid cell is an error naming its type.
+
+VTU is written too (``write``, format ``vtu``): the mesh with each mode
+and its nodal von Mises stress, the eigenvalues and frequencies, density,
+material and units as field data, and the static centrifugal deflections of the
+six load cases ``static_w1w1`` .. ``static_w2w3`` (per unit spin^2, theory 11)
+where the body has its material: ParaView opens them, and they read back to the
+same body.
 """
 from __future__ import annotations
 
@@ -17,14 +26,15 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..body import FlexibleBody, Provenance
-from ..errors import BodyFileError
+from ..body import CASES, FlexibleBody, Provenance
+from ..errors import BodyFileError, FFRFError
 from ..fe.assembly import mass_matrix
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from ..fe.elements import ELEMENT_TYPES
 from ..fe.material import Material
 from ..fe.mesh import Mesh
 from . import Format, guard, register
+from .atomic import atomic_path
 from .limits import check_file_size, check_reference
 
 SUFFIXES = (".vtu", ".vtk", ".xdmf", ".xmf", ".med", ".msh")
@@ -77,10 +87,12 @@ def _modes(path, m, n_nodes: int) -> tuple[list[int], np.ndarray]:
 
 def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = None, young: float | None = None,
          poisson: float | None = None) -> FlexibleBody:
-    """A modal body from a meshio mesh with mode fields (t-mm-N-s); with ``young`` and ``poisson`` the body
-    carries its material, static centrifugal response and geometric stiffness (theory 9, 11)."""
-    material = _material(path, young, poisson)
+    """A modal body from a meshio mesh with mode fields (t-mm-N-s); with ``young`` and ``poisson`` (options or
+    field data) the body carries its material, static centrifugal response and geometric stiffness (theory 9,
+    11)."""
     m = guard.run(path, "meshio", _meshio_read, path)
+    units = _units_note(path, m)
+    material = _material(path, *(_scalar(path, m, k, v) for k, v in (("young", young), ("poisson", poisson))))
     mesh = _solid_mesh(path, m)
     numbers, Phi = _modes(path, m, mesh.n_nodes)
     nf = len(numbers)
@@ -93,13 +105,14 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
     provenance = Provenance(
         source=str(path), mass_matrix="consistent",
         method="consistent mass assembled from the mesh; nodal sums (theory section 3)",
-        notes=(f"units t-mm-N-s assumed (a meshio file states none): coordinates mm, density {rho:g} t/mm^3, "
+        notes=(f"{units}: coordinates mm, density {rho:g} t/mm^3, "
                f"eigenvalues 1/s^2; modes mass-normalised (file scale factors "
                f"{', '.join(f'{1 / s:.4g}' for s in scale[:4])}{' ...' if nf > 4 else ''})",
                f"{mesh.n_cells} x {', '.join(mesh.cells)}, {mesh.n_nodes} nodes"))
     if material is not None:
         material = replace(material, rho=rho)
-        provenance = provenance.with_note(f"material E={young:g}, nu={poisson:g} (--young, --poisson): static "
+        given = "--young, --poisson" if young is not None else "field data"
+        provenance = provenance.with_note(f"material E={material.E:g}, nu={material.nu:g} ({given}): static "
                                           "centrifugal response and geometric stiffness computed")
     body = fe_body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi_n, lam, provenance, stress=stress,
                    material=material)
@@ -151,6 +164,27 @@ def _material(path, young: float | None, poisson: float | None) -> Material | No
     return Material("meshio --young/--poisson", float(young), float(poisson), 1.0)
 
 
+TMM_SI = (1e3, 1e-3, 1.0)  # kg per t, m per mm, s per s
+
+
+def _units_note(path, m) -> str:
+    """How the units are known: field data ``units_si``, which must then say t-mm-N-s, or assumed."""
+    if "units_si" not in m.field_data:
+        return "units t-mm-N-s assumed (a meshio file states none)"
+    si = _numbers(path, "field_data/units_si", m.field_data["units_si"], 3)
+    if not np.allclose(si, TMM_SI, rtol=1e-12):
+        raise BodyFileError(path, "field_data/units_si", f"t-mm-N-s ({', '.join(map(str, TMM_SI))})",
+                            ", ".join(f"{x:g}" for x in si))
+    return "units t-mm-N-s (field data units_si)"
+
+
+def _scalar(path, m, field: str, option: float | None) -> float | None:
+    """The option, else one number of field data, else None."""
+    if option is not None or field not in m.field_data:
+        return option
+    return float(_numbers(path, f"field_data/{field}", m.field_data[field], 1)[0])
+
+
 def _given(path, m, field: str, option):
     """The option's value, else the field data, else a one-line error."""
     if option is not None:
@@ -174,4 +208,61 @@ def _stress(path, m, n_nodes: int, numbers: list[int]) -> np.ndarray | None:
     return S
 
 
-register(Format("meshio", SUFFIXES, read))
+WRITES = (".vtu",)  # written; the other suffixes are read only
+
+
+def write(body: FlexibleBody, path, overwrite: bool = False) -> None:
+    """The body as a VTU/VTK mesh (module docstring), in t-mm-N-s, written atomically."""
+    import meshio
+    from ..adequacy import static_centrifugal
+    from ..units import TMM
+    if body.fe is None:
+        raise FFRFError(f"{path}: a mesh file holds nodal FE data; {body.name} has invariants only")
+    if body.fe.rotary is not None:
+        raise FFRFError(f"{path}: a mesh file cannot hold the rotary inertia of {len(body.fe.rotary.nodes)} nodes "
+                        "(theory 3b); write .ffrf.h5")
+    b = body.converted(TMM)
+    fe, n = b.fe, b.fe.mesh.n_nodes
+    rho = _uniform_density(b, path)
+    point = {f"mode_{p + 1}": fe.Phi[:, :, p] for p in range(b.nf)}
+    if fe.stress_nodal is not None:
+        point |= {f"von_mises_{p + 1}": fe.stress_nodal[:, p] for p in range(b.nf)}
+    field = {"eigenvalues": b.eigenvalues, "frequencies_hz": b.frequencies_hz, "density": np.array([rho]),
+             "units_si": np.array(TMM_SI)}
+    if fe.material is not None and fe.rotary is None:
+        U = static_centrifugal(fe, fe.material)[1]
+        point |= {f"static_{c}": U[:, j].reshape(n, 3) for j, c in enumerate(CASES)}
+        field |= {"young": np.array([fe.material.E]), "poisson": np.array([fe.material.nu])}
+    mesh = meshio.Mesh(fe.mesh.points, list(fe.mesh.cells.items()), point_data=point)
+    with atomic_path(path, overwrite) as tmp:
+        meshio.write(tmp, mesh, file_format="vtu")
+        _add_field_data(tmp, field)
+
+
+def _add_field_data(path, field: dict) -> None:
+    """meshio's VTU writer drops field data (its reader reads it): add it as the grid's <FieldData>, ASCII
+    with every digit (``repr``: the numbers read back exactly)."""
+    import xml.etree.ElementTree as ET
+    tree = ET.parse(path)
+    grid = tree.getroot().find("UnstructuredGrid")
+    data = ET.Element("FieldData")
+    for name, values in field.items():
+        array = ET.SubElement(data, "DataArray", type="Float64", Name=name,
+                              NumberOfTuples=str(len(values)), format="ascii")
+        array.text = " ".join(repr(float(x)) for x in values)
+    grid.insert(0, data)
+    tree.write(path, xml_declaration=True, encoding="utf-8")
+
+
+def _uniform_density(body: FlexibleBody, path) -> float:
+    """The one density whose consistent mass matrix is the body's (a mesh file holds no mass matrix)."""
+    fe = body.fe
+    rho = body.mass / float(mass_matrix(fe.mesh, 1.0).sum())
+    if abs(mass_matrix(fe.mesh, rho) - fe.Ms).max() > 1e-12 * abs(fe.Ms).max():
+        raise FFRFError(f"{path}: a mesh file holds one density; {body.name}'s mass matrix is not the consistent "
+                        "mass of a uniform density (added or lumped masses): write .ffrf.h5")
+    return rho
+
+
+register(Format("meshio", tuple(s for s in SUFFIXES if s not in WRITES), read))
+register(Format("vtu", WRITES, read, write))

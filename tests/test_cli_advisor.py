@@ -304,6 +304,7 @@ def test_analyze_and_compare_stay_right_at_80_columns():
     ("compare", ["--speed", "1rad/s"]),
     ("settings", ["--speed", "300rad/s"]),
     ("modes", ["--speed", "300rad/s"]),
+    ("diff", [str(SAMPLE), "--speed", "300rad/s"]),
 ])
 def test_every_json_output_follows_its_documented_schema(command, extra):
     """One documented schema per command, shipped in the package and printed by `schema` (simulate and verify

@@ -380,18 +380,18 @@ def test_the_mode_release_scene_shows_the_mixing_the_prediction_bounds(block_bod
 
 
 def test_the_quick_pairing_of_modes_is_the_optimal_assignment():
-    """predict._best_pairs against scipy's linear_sum_assignment: the same total score on diagonally dominant
+    """predict.best_pairs against scipy's linear_sum_assignment: the same total score on diagonally dominant
     MAC-like matrices (the shortcut) and on random ones (the fallback), rows x columns of 1 to 20 modes."""
     from scipy.optimize import linear_sum_assignment
 
-    from ffrf_advisor.predict import _best_pairs
+    from ffrf_advisor.predict import best_pairs
     rng = np.random.default_rng(7)
     for n in range(1, 21):
         for dominant in (True, False):
             score = rng.random((n, n)) * (0.1 if dominant else 1.0)
             if dominant:
                 score[np.arange(n), rng.permutation(n)] += 1.0
-            rows, cols = _best_pairs(score)
+            rows, cols = best_pairs(score)
             best = linear_sum_assignment(-score)
             assert sorted(cols) == list(range(n))
             assert score[rows, cols].sum() == pytest.approx(score[best].sum(), rel=1e-15, abs=0)

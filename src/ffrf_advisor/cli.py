@@ -195,7 +195,7 @@ def _json_option(command: str):
 AsJson = _json_option("analyze")
 InfoJson, GateJson, CompareJson = (_json_option(c) for c in ("info", "gate", "compare"))
 SettingsJson, SimulateJson, VerifyJson = (_json_option(c) for c in ("settings", "simulate", "verify"))
-ModesJson = _json_option("modes")
+ModesJson, DiffJson = _json_option("modes"), _json_option("diff")
 
 
 @app.command()
@@ -508,6 +508,34 @@ def _mode_set_proof(result, advice, loads, names, figures: Optional[Path]):
         figures.mkdir(parents=True, exist_ok=True)
         proof_figure(proof, figures, f"{result.body.name}: mode sets against the reference")
     return proof
+
+
+@app.command("diff")
+@handles_errors
+@analysis_options
+def diff_command(old: Path = typer.Argument(..., help="The body as it was."),
+                 new: Path = typer.Argument(..., help="The body as it is now."),
+                 junit: Optional[Path] = typer.Option(None, "--junit", help="Write JUnit XML here."),
+                 force: bool = typer.Option(False, "--force", help="Let --junit replace an existing file."),
+                 as_json: DiffJson = False, *, args: AnalysisArgs):
+    """Are two revisions the same model? Rigid body, frequencies and mode shapes paired by MAC, invariants,
+    stale modes (stiffness changed, modes not regenerated), advice; exit 1 when a change exceeds --tolerance."""
+    from .io.atomic import atomic_path, check_target
+    from .report.diff_out import diff_json, diff_report, write_diff_junit
+    from .revision import diff
+    if junit is not None:
+        check_target(junit, force)
+    options = args.options(_note)
+    d = diff(args.read(old), args.read(new), options.situation.tolerance, options)
+    if junit is not None:
+        with atomic_path(junit, overwrite=force) as tmp:
+            write_diff_junit(d, str(old), str(new), tmp)
+    if as_json:
+        _print_json(diff_json(d, str(old), str(new)))
+    else:
+        diff_report(out(), d, str(old), str(new))
+    if not d.same:
+        raise typer.Exit(1)
 
 
 @app.command("schema")

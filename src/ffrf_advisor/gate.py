@@ -66,7 +66,7 @@ def _is_junit(path: Path) -> bool:
         return False
 
 
-def _xml_text(text: str) -> str:
+def xml_text(text: str) -> str:
     """Text XML 1.0 can carry: control characters and lone surrogates (undecodable file names) replaced."""
     return "".join(c if (c in "\t\n\r" or " " <= c <= "\ud7ff" or "\ue000" <= c <= "\ufffd") else "\ufffd"
                    for c in str(text))
@@ -84,13 +84,13 @@ def write_junit(results: list[dict], max_level: str, path: Path) -> None:
     suite = ET.SubElement(root, "testsuite", name="ffrf-advisor gate", tests=str(len(results)),
                           failures=str(failures), errors=str(errors), time=total)
     for r in results:
-        case = ET.SubElement(suite, "testcase", classname="ffrf-advisor.gate", name=_xml_text(r["file"]),
+        case = ET.SubElement(suite, "testcase", classname="ffrf-advisor.gate", name=xml_text(r["file"]),
                              time=f"{r.get('time', 0.0):.3f}")
         if r["error"]:
-            ET.SubElement(case, "error", message=_xml_text(r["error"])).text = _xml_text(r["error"])
+            ET.SubElement(case, "error", message=xml_text(r["error"])).text = xml_text(r["error"])
         elif not r["within"]:
             failure = ET.SubElement(case, "failure", message=f"level {r['level']} exceeds {max_level}")
-            failure.text = _xml_text("\n".join(r["evidence"] + [f"warning: {w}" for w in r["warnings"]]))
+            failure.text = xml_text("\n".join(r["evidence"] + [f"warning: {w}" for w in r["warnings"]]))
         if r["warnings"]:
-            ET.SubElement(case, "system-out").text = _xml_text("\n".join(f"warning: {w}" for w in r["warnings"]))
+            ET.SubElement(case, "system-out").text = xml_text("\n".join(f"warning: {w}" for w in r["warnings"]))
     ET.ElementTree(root).write(path, encoding="utf-8", xml_declaration=True)

@@ -129,11 +129,11 @@ def _matched_error(f_ref: np.ndarray, V_ref: np.ndarray, f: np.ndarray, V: np.nd
     B = V / np.linalg.norm(V, axis=0)
     mac = np.abs(A.conj().T @ B) ** 2
     rel = np.abs(f[None, :] - f_ref[:, None]) / f_ref[:, None]
-    rows, cols = _best_pairs(mac - 1e-3 * np.minimum(rel, 1.0))
+    rows, cols = best_pairs(mac - 1e-3 * np.minimum(rel, 1.0))
     return float(np.max(rel[rows, cols]))
 
 
-def _best_pairs(score: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def best_pairs(score: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The pairing (rows, cols) of largest total score. When every row's best column is another column, that
     is it (no pairing beats each row's own maximum); else scipy's linear_sum_assignment, whose import (0.45 s
     with scipy.optimize) the usual, diagonally dominant MAC matrix so does without."""

@@ -155,16 +155,23 @@ def analysis_summary(console: Console, a, warnings: Console | None = None, modes
     _evidence(console, adv.rules)
 
 
-def fitted_table(console: Console, title: str, headers, rows, left=()) -> None:
+def fitted_table(console: Console, title: str, headers, rows, left=(), prose: str | None = None) -> None:
     """A table whose columns are as wide as their longest value or header word (headers break at blanks,
-    values never); where that is wider than the console, one stacked block per row instead (right at any
-    width)."""
+    values never; the ``prose`` column, a left-justified text, wraps at blanks into the width the others
+    leave, at least its longest word); where that is wider than the console, one stacked block per row
+    instead (right at any width)."""
     plain = [Text.from_markup(h).plain for h in headers]
-    widths = [max([len(r[k]) for r in rows] + [len(w) for w in plain[k].split()]) for k in range(len(headers))]
-    if sum(widths) + 3 * len(widths) + 1 <= console.width:
+    words = lambda k: [len(w) for r in rows for w in r[k].split()] + [len(w) for w in plain[k].split()]  # noqa
+    widths = [max(words(k)) if h == prose else max([len(r[k]) for r in rows] + [len(w) for w in plain[k].split()])
+              for k, h in enumerate(headers)]
+    frame = 3 * len(widths) + 1
+    if prose in headers:
+        k = headers.index(prose)
+        widths[k] = max(widths[k], min(max(len(r[k]) for r in rows), console.width - frame - sum(widths) + widths[k]))
+    if sum(widths) + frame <= console.width:
         t = Table(title=title)
         for h, w in zip(headers, widths):
-            t.add_column(h, justify="left" if h in left else "right", width=w)
+            t.add_column(h, justify="left" if h in left or h == prose else "right", width=w)
         for row in rows:
             t.add_row(*row)
         console.print(t)

@@ -14,6 +14,7 @@ from .io import check_reader_options, read_body
 from .io.atomic import refuse_inputs
 from .pool import mapper
 from .report.json_out import analysis_json
+from .report.junit import xml_text
 
 def gate_one(path: str, options: Options, max_level: str, read_options: dict | None = None) -> dict:
     """One body's gate record with its wall time; bad input becomes an 'error' entry instead of an exception."""
@@ -64,12 +65,6 @@ def _is_junit(path: Path) -> bool:
         return ET.parse(path).getroot().tag in ("testsuites", "testsuite")
     except (ET.ParseError, OSError, ValueError):
         return False
-
-
-def xml_text(text: str) -> str:
-    """Text XML 1.0 can carry: control characters and lone surrogates (undecodable file names) replaced."""
-    return "".join(c if (c in "\t\n\r" or " " <= c <= "\ud7ff" or "\ue000" <= c <= "\ufffd") else "\ufffd"
-                   for c in str(text))
 
 
 def write_junit(results: list[dict], max_level: str, path: Path) -> None:

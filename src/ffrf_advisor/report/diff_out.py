@@ -8,6 +8,7 @@ from rich.console import Console
 from ..revision import RevisionDiff
 from .console import fitted_table, shown
 from .json_out import json_number
+from .junit import xml_text
 
 SCHEMA_VERSION = 1
 
@@ -32,7 +33,6 @@ def diff_report(console: Console, d: RevisionDiff, old: str, new: str) -> None:
 
 def write_diff_junit(d: RevisionDiff, old: str, new: str, path) -> None:
     """One test case per compared quantity, a failure where it changed beyond the tolerance."""
-    from ..gate import xml_text
     failures = sum(c.exceeds for c in d.changes)
     name = xml_text(f"ffrf-advisor diff {old} {new}")
     root = ET.Element("testsuites", name=name, tests=str(len(d.changes)), failures=str(failures), errors="0")

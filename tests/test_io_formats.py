@@ -153,6 +153,25 @@ def test_settings_for_adams(body, speed, formulation, pattern):
     assert bad.exit_code == 2
 
 
+def test_settings_for_more_solvers_say_what_they_cannot_drop_or_add():
+    """RecurDyn Partial (no N4, N6) for an advice without W2 and W3 terms and Full with them; EXUDYN keeps every
+    inertia term and cannot add geometric stiffening; Chrono's mapping is tagged a guess; JSON by its schema."""
+    import jsonschema
+    from ffrf_advisor.schemas import schema
+    from ffrf_advisor.solver_settings import SETTINGS
+    light, heavy = ("gyro0", "cf1"), ("gyro0", "cf1", "inertia_quad", "cf2", "geo_stiff")
+    assert SETTINGS["recurdyn"](light)["setting"] == "Partial" and SETTINGS["recurdyn"](heavy)["setting"] == "Full"
+    assert SETTINGS["recurdyn"](light)["cannot_drop"] == ["inertia_lin", "cor1"]
+    exudyn = SETTINGS["exudyn"](heavy)
+    assert exudyn["cannot_add"] == ["geo_stiff"] and "coupling" in exudyn["cannot_drop"] and exudyn["sure"] == "seen"
+    assert SETTINGS["chrono"](light)["sure"] == "guess"
+    for solver in SETTINGS:
+        result = runner.invoke(app, ["settings", str(SAMPLES / "beam.ffrf.h5"), "--solver", solver, "--speed",
+                                     "300rad/s", "--json"])
+        assert result.exit_code == 0, result.output
+        jsonschema.validate(json.loads(result.stdout), schema("settings"))
+
+
 def test_vtu_output_reads_back_to_the_same_body(tmp_path, beam):
     """`convert BODY out.vtu` (issue 27): modes, nodal von Mises, the six static centrifugal deflections as
     point data, eigenvalues, frequencies, density, material and units as field data; read back (meshio reader)

@@ -564,15 +564,15 @@ def list_formats():
 def settings(body: Path = typer.Argument(..., help="Body file."),
              solver: str = typer.Option("adams", "--solver", help=f"Solver: {', '.join(SOLVERS)}."),
              as_json: SettingsJson = False, *, args: AnalysisArgs):
-    """Solver settings for the advised term set (Adams: coupling option and INVARIANTS= pattern)."""
+    """Solver settings for the advised term set (Adams, RecurDyn, EXUDYN, Chrono; docs/solvers.md), with how
+    sure each mapping is and the terms the solver cannot drop or cannot add."""
     from .report.console import settings_report
-    from .solver_settings import adams_settings
+    from .solver_settings import SETTINGS
     if solver not in SOLVERS:
         raise FFRFError(f"--solver {solver!r}: expected one of {', '.join(SOLVERS)}")
     result = run_analysis(args.read(body, load_fe="summary"), args.options(_note))
-    data = {"schema_version": 1, "level": result.advice.level, "terms": list(result.advice.terms),
-            **adams_settings(result.advice.terms),
-            "warnings": list(result.advice.warnings)}
+    data = {"schema_version": 2, "level": result.advice.level, "terms": list(result.advice.terms),
+            **SETTINGS[solver](result.advice.terms), "warnings": list(result.advice.warnings)}
     if as_json:
         _print_json(data)
         return

@@ -9,6 +9,6 @@ SCENES = ("free-spin", "mode-release", "spin-up", "torque-pulse", "minor-axis")
 FIXED = ("rk4", "rk4-lie", "midpoint")  # the integrators with a fixed step
 ADAPTIVE = ("dop853", "scipy-dop853", "rk45", "radau", "bdf", "lsoda")
 INTEGRATORS = FIXED + ADAPTIVE
-SOLVERS = ("adams",)
+SOLVERS = ("adams", "recurdyn", "exudyn", "chrono")  # solver_settings.SETTINGS
 SCHEMA_COMMANDS = ("info", "analyze", "gate", "compare", "settings", "simulate", "verify", "modes", "diff")  # with --json
 MAX_MEMORY_ENV = "FFRF_ADVISOR_MAX_MEMORY"

@@ -381,19 +381,24 @@ def gate_report(console: Console, warnings: Console, results: list[dict], max_le
 
 
 def settings_report(console: Console, warnings: Console, data: dict) -> None:
-    """settings' text: the level and terms, the solver's coupling option and invariant pattern, what each term
-    needs; the warnings on ``warnings`` (stderr)."""
+    """settings' text: the level and terms, the solver's setting and how sure it is, what each term needs
+    (Adams), what the solver cannot drop or add; the warnings on ``warnings`` (stderr)."""
     for w in data["warnings"]:
         warnings.print(f"warning: {w}", highlight=False)
     console.print(f"level {data['level']}: terms {', '.join(data['terms'])}")
-    console.print(f"Adams: [bold]{data['formulation']}[/bold]   INVARIANTS={data['invariants']}")
-    console.print(f"  {data['statement']}")
-    for term, invs in data["needed_invariants"].items():
+    console.print(f"{data['solver']}: [bold]{escape(data['setting'])}[/bold]   (mapping {data['sure']})")
+    console.print(f"  {escape(data['statement'])}", highlight=False)
+    for term, invs in data.get("needed_invariants", {}).items():
         console.print(f"  {term:13s} " + (f"needs {', '.join(invs)}" if invs else
                                           "no invariant carries it: the solver needs its own stress stiffening "
                                           "(theory 9)"), highlight=False)
+    for key, text in (("cannot_drop", "kept although the advice drops them (cost, no error)"),
+                      ("cannot_add", "needed by the advice, not available: expect its error")):
+        if data[key]:
+            console.print(f"  {key.replace('_', ' ')}: {', '.join(data[key])}: {text}", highlight=False)
     console.print(f"source: {data['source']}", highlight=False)
-    console.print(f"note: {data['pattern_note']}", highlight=False)
+    if "pattern_note" in data:
+        console.print(f"note: {data['pattern_note']}", highlight=False)
 
 
 def verification_report(console: Console, d: dict) -> None:

@@ -16,6 +16,7 @@ Q_CAP = 1.0          # in t-mm units: sqrt(t) * mm
 # small deformations only: the paper asks for deflections one to two orders of magnitude below the body's size,
 # and Adams checks modal deflections against a characteristic length. 5 % is the lenient end of that (1/20).
 SMALL_DEFORMATION = 0.05
+FLOOR = 0.1  # of q_max and sigma_allow: a difference below it counts against the floor, not in full (theory 10)
 MAX_DEFLECTION = 1e3  # of the body's largest dimension: given amplitudes beyond are refused
 
 

@@ -22,14 +22,14 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .amplitudes import FLOOR
 from .analysis import Analysis
 from .body import CASES, SYM_PAIRS, FlexibleBody
 from .errors import FFRFError
+from .significance import f_cf1
 from .sim.cost import rhs_cost
 from .sim.model import build_model
-from .significance import f_cf1
 from .units import TIME
-from .verify.measures import FLOOR
 
 EULER = ("dw1/dt", "dw2/dt", "dw3/dt")  # no load on free modes at q = 0 (theory 12)
 BAND = 2.0        # modes up to BAND * f_exc respond dynamically (theory 12: the literature's 1.5-2)
@@ -348,7 +348,7 @@ def _choice(k: int, body, scenes, p, share, applied, tol: float, band: float) ->
 def _weight(loads: InertiaLoads, cases, floor: float, w: np.ndarray) -> float:
     """What a relative error of these cases counts for at spin w: their stress there (a bound, ``sum_j |c_j(w)|
     sigma_j``; a single case at the speed |w|) over the larger of it and the floor (a tenth of sigma_allow, as
-    verify's errors: verify.measures.FLOOR); 1 where a stress is unknown. A spin that barely stresses the body
+    verify's errors: amplitudes.FLOOR); 1 where a stress is unknown. A spin that barely stresses the body
     needs no residual vector for it (docs/modes.md)."""
     ix = list(cases)
     c = np.abs(coefficients(w))[ix] if len(ix) > 1 else np.array([float(np.dot(w, w))])

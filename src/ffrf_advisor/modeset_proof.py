@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .amplitudes import FLOOR
 from .analysis import Analysis
 from .body import FlexibleBody
 from .errors import FFRFError
@@ -23,7 +24,7 @@ from .modeset import InertiaLoads, ModeAdvice, reduced_body
 from .sim.cost import rhs_cost
 from .sim.integrate import rk4_limit
 from .sim.model import N_ROT, build_model
-from .verify.measures import FLOOR, relative_angle
+from .verify.measures import relative_angle
 from .verify.runner import REF_RTOL, run_scene
 from .verify.scenes import make_scenes
 

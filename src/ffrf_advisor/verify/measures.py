@@ -31,13 +31,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..amplitudes import FLOOR
 from ..sim.integrate import Run
 from ..sim.model import N_ROT
 
 QUANTITIES = ("w", "orientation", "q", "stress")
 RESPONSE = ("w_response", "q_response", "stress_peak", "frequency")
 CRITERIA = {"response": RESPONSE, "trajectory": QUANTITIES}
-FLOOR = 0.1  # of |q_max| and of sigma_allow
 
 
 def _relative(diff: np.ndarray, ref: np.ndarray, floor: float = 0.0) -> float:

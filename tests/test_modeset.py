@@ -235,3 +235,14 @@ def test_the_proof_verifies_the_advised_body_and_finds_a_dropped_mode_unsafe(nam
     carrier = max(adv.kept, key=lambda k: adv.modes[k].participation)
     fewer = replace(adv, kept=tuple(k for k in adv.kept if k != carrier), residual_cases=())
     assert prove(a, fewer, loads, scenes).verdict == "unsafe"
+
+
+def test_an_invariants_file_gets_the_frequency_band_only_and_says_so(tmp_path):
+    """Without nodal data or a cached static response the shares cannot be bounded: modes are kept by band
+    alone, no residual vector, and the summary says the error is not bounded."""
+    inv = tmp_path / "beam.ffinv.json"
+    assert runner.invoke(app, ["convert", str(DIR / "beam.ffrf.h5"), str(inv)]).exit_code == 0
+    data = json.loads(runner.invoke(app, ["modes", str(inv), "--speed", "300rad/s", "--json"]).stdout)
+    assert "frequency band decides alone" in data["loads_source"] and not data["residual_cases"]
+    assert all(m["reason"].startswith(("keep: in band", "drop: out of band, share unknown")) for m in data["modes"])
+    assert "error not bounded" in data["summary"]

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .amplitudes import FLOOR
+from .amplitudes import FLOOR, SMALL_DEFORMATION
 from .analysis import Analysis
 from .body import CASES, SYM_PAIRS, FlexibleBody
 from .errors import FFRFError
@@ -132,6 +132,8 @@ class SceneDemand:
     f_exc: float
     excited_by: str
     started: tuple[int, ...] = ()
+    rise_s: float = 0.0  # the spin rises over this time [s] (spin_profile; 0: the scene starts at full spin)
+    prescribed: bool = False  # the rotation is prescribed (spin-up): it cannot wander
     weights: tuple[float, ...] = ()  # what its relative errors count for along each spin (_weight)
 
 
@@ -160,8 +162,10 @@ def scene_demands(a: Analysis, names, tolerance: float, f_max: float | None = No
             pieces["--f-max"] = f_max
         by = max(pieces, key=pieces.get)
         started = tuple(int(p) for p in np.flatnonzero(np.asarray(sc.q0) != 0) if sc.vibrating)
+        rise = 0.0 if program is None else (program.ramp if program.spin is not None else
+                                            program.pulse if np.isfinite(program.pulse) else 0.0)
         out.append(SceneDemand(sc.label, tuple(cases), tuple(tuple(map(float, d)) for d in directions),
-                               float(sc.speed), float(pieces[by]), by, started))
+                               float(sc.speed), float(pieces[by]), by, started, rise / per_s, sc.prescribed))
     return out
 
 
@@ -227,9 +231,11 @@ class ModeAdvice:
 
     def worst(self, residual: bool) -> float | None:
         """The largest predicted scene error with (``residual``) or without the residual vectors; None when a
-        scene's error cannot be bounded."""
+        scene's error cannot be bounded (no compliance), NaN when a scene spins above a critical speed."""
         values = [p[1] if residual else p[0] for p in self.predicted]
-        return None if any(v is None for v in values) else max(values, default=0.0)
+        if any(v is None for v in values):
+            return None
+        return np.nan if any(np.isnan(values)) else max(values, default=0.0)
 
     def summary(self) -> str:
         """One line: what carries the scenes within the tolerance, how much cheaper, and the explicit step."""
@@ -237,14 +243,16 @@ class ModeAdvice:
         worst = self.worst(bool(res))
         vectors = f" and {res} residual vector{'s' * (res != 1)}" if res else ""
         if worst is None:
-            verdict = "carry the scenes (error not bounded: no compliance)"
-        elif not np.isfinite(worst):
-            verdict = "cannot be judged: a scene excites beyond the file's modes (see the notes)"
+            verdict = "carry the scenes (error not bounded: no compliance; the frequency band decided)"
+        elif np.isnan(worst):
+            verdict = "cannot be judged: a scene has no stable small deflection (see the notes)"
         elif worst <= self.tolerance:
             verdict = f"carry the scenes within {self.tolerance:g} (predicted {worst:.2g})"
         else:
             scene = self.scenes[[p[1] if res else p[0] for p in self.predicted].index(worst)].label
             verdict = f"leave a predicted error {worst:.2g} > {self.tolerance:g} in {scene}: verify by simulation"
+        if any("beyond the file's last mode" in n for n in self.notes):
+            verdict += " of the file's modes, whose last is inside a scene's band (see the notes)"
         text = (f"{len(self.kept)} of {self.nf} modes{vectors} {verdict}; right-hand side cost x"
                 f"{1 / self.rhs_ratio:.3g} of all modes'; explicit step x{self.step_ratio_modes:.3g}")
         if res:
@@ -254,12 +262,33 @@ class ModeAdvice:
         return text
 
 
-def amplification(f_exc: float, f: np.ndarray) -> np.ndarray:
-    """Quasi-static amplification ``1 / (1 - (f_exc / f)^2)`` of modes above the excitation (inf at or below
-    it; docs/modes.md)."""
-    r2 = (f_exc / np.asarray(f, float)) ** 2
-    with np.errstate(divide="ignore"):
-        return np.where(r2 < 1, 1.0 / (1.0 - r2), np.inf)
+RISE_STEPS = 2000  # segments of the rise in response_factors (the recursion is exact for each segment)
+
+
+def response_factors(f_hz, rise_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """(total, excess) per mode: the largest ``|x|`` and dynamic part ``|x - g|`` of ``x'' + Omega^2 x =
+    Omega^2 g(t)``, x(0) = x'(0) = 0, for the load shape of a spin rising as ``spin_profile`` over ``rise_s``,
+    ``g = (w / W)^2`` (a step at 0), then held: a mode's response over its static response at full spin
+    (docs/modes.md). Exact for g linear between RISE_STEPS points (the profile's curvature leaves about 1e-6 of the response):
+    ``y = x - g`` turns as a free oscillation within each segment and its rate jumps by the change of slope at
+    each point; its amplitude bounds ``|x - g|`` (held, it keeps that amplitude)."""
+    from .sim.loads import spin_profile
+    om = 2 * np.pi * np.atleast_1d(np.asarray(f_hz, float))
+    if rise_s <= 0:
+        return np.full_like(om, 2.0), np.ones_like(om)
+    t = np.linspace(0.0, rise_s, RISE_STEPS + 1)
+    g = np.array([spin_profile(1.0, rise_s)(x)[0] for x in t]) ** 2
+    slope = np.append(np.diff(g) / np.diff(t), 0.0)  # held after the rise
+    y, v = np.zeros_like(om), -slope[0] / om  # y = x - g, v = y' / Omega
+    c, s_ = np.cos(om * (t[1] - t[0])), np.sin(om * (t[1] - t[0]))
+    excess, total = np.zeros_like(om), np.zeros_like(om)
+    for i in range(RISE_STEPS):  # segment i: |y| stays within its amplitude, g within g[i + 1]
+        y, v = y * c + v * s_, -y * s_ + v * c
+        amplitude = np.hypot(y, v)
+        excess, total = np.maximum(excess, amplitude), np.maximum(total, g[i + 1] + amplitude)
+        v = v - (slope[i + 1] - slope[i]) / om
+    held = np.hypot(y, v)  # after the rise: a free oscillation about g = 1
+    return np.maximum(total, 1.0 + held), np.maximum(excess, held)
 
 
 def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = None, f_max: float | None = None,
@@ -286,8 +315,11 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
     top = float(body.frequencies_hz[-1])
     notes += [f"{s.label} excites up to {s.f_exc:.4g} Hz; its band ({band:g} x) ends above the file's last mode "
               f"({top:.4g} Hz): compute more modes to bound its error" for s in scenes if band * s.f_exc > top]
-    model = build_model(body, a.advice.terms)
-    kept, predicted = _widened(kept, residual, modes, scenes, loads, model, body.frequencies_hz, tol)
+    kept, predicted = _widened(kept, residual, modes, scenes, loads, _Setting.of(body, a.advice.terms), tol)
+    notes += [f"{sc.label}: at {sc.speed / float(TIME[body.units.time]):.4g} rad/s the term set has no stable small "
+              f"deflection along one of its spins (above a critical speed, a free spin that wanders, or a static "
+              f"deflection beyond {SMALL_DEFORMATION:g} of the body's size): the prediction does not apply; verify "
+              "by simulation" for sc, p in zip(scenes, predicted) if p[0] is not None and np.isnan(p[0])]
     terms = tuple(a.advice.terms)
     size = len(kept) + len(residual)
     return ModeAdvice(body.nf, kept, residual, modes, cases,
@@ -296,14 +328,14 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
                       _step_ratio(body, kept, (), loads), loads.source, notes)
 
 
-def _widened(kept, residual, modes: list, scenes, loads: InertiaLoads, model, f_hz: np.ndarray, tol: float):
+def _widened(kept, residual, modes: list, scenes, loads: InertiaLoads, setting: "_Setting", tol: float):
     """(kept, predictions): while a scene's static error at its spin stays above the tolerance in the advised
     basis, the dropped mode carrying most of it joins (the spin softens the body and couples the modes:
     docs/modes.md); ``modes`` is updated with the reason."""
     while True:
-        predicted = [_predicted(s, kept, residual, loads, model, f_hz) for s in scenes]
+        predicted = [_predicted(s, kept, residual, loads, setting) for s in scenes]
         bad = [p for p in predicted if p[2] is not None and p[2] > tol]
-        dropped = [k for k in range(model.nf) if k not in kept]
+        dropped = [k for k in range(setting.model.nf) if k not in kept]
         if not bad or not dropped:
             return kept, predicted
         worst = max(bad, key=lambda p: p[2])
@@ -373,64 +405,115 @@ def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float, weight: 
     return CaseError(CASES[j], energy, stress, worst is not None and worst * weight > tol, weight)
 
 
-def _predicted(scene: SceneDemand, kept, residual, loads: InertiaLoads, model, f_hz: np.ndarray) -> tuple:
+def _predicted(scene: SceneDemand, kept, residual, loads: InertiaLoads, setting: "_Setting") -> tuple:
     """(without, with residual vectors, the static part of the latter, the modes' share of that static error
     (nf,)): the largest predicted relative energy-norm errors of the scene's response over its spin directions
     (``_spun``); None when a needed compliance is unknown."""
     if not scene.cases:
-        return 0.0, 0.0, 0.0, np.zeros(model.nf)
-    runs = [_spun(np.asarray(w), scene, kept, residual, loads, model, f_hz) for w in scene.directions]
+        return 0.0, 0.0, 0.0, np.zeros(setting.model.nf)
+    runs = [_spun(np.asarray(w), scene, kept, residual, loads, setting) for w in scene.directions]
     if any(r is None for r in runs):
-        return None, None, None, np.zeros(model.nf)
+        return None, None, None, np.zeros(setting.model.nf)
     runs = [(g * r[0], g * r[1], g * r[2], r[3]) for g, r in zip(scene.weights, runs)]
     worst = max(runs, key=lambda r: r[2])
     return max(r[0] for r in runs), max(r[1] for r in runs), worst[2], worst[3]
 
 
-def _spun(w: np.ndarray, scene: SceneDemand, kept, residual, loads: InertiaLoads, model, f_hz: np.ndarray):
-    """Predicted errors at steady spin w (docs/modes.md): the static response of the term set at w over the
-    file's modes, ``K_s q = f0`` (``Omega^2 - s^2 Kc + s^2 G``, sim.linearise), against its Galerkin solution in
-    the kept modes (and in the kept modes plus the residual vectors' modal parts ``P_j / lambda``), each
-    dropped component amplified by ``A_k`` (with the residual vectors, which hold its static part, the excess
-    ``A_k - 1``); the static share beyond the file's modes at the amplification of its last mode."""
+def _spun(w: np.ndarray, scene: SceneDemand, kept, residual, loads: InertiaLoads, setting: "_Setting"):
+    """Predicted errors of the peak response at spin w (docs/modes.md): the static response of the term set at
+    w over the file's modes, ``K_s q = f0`` (``Omega^2 - s^2 Kc + s^2 G``, sim.linearise), against its Galerkin
+    solution in the kept modes (and in the kept modes plus the residual vectors' modal parts ``P_j / lambda``);
+    without residual vectors each dropped component and the part beyond the file's modes are missed at their
+    peak response to the scene's rise (``response_factors``); with them, which hold those static parts and
+    answer at their own Rayleigh frequency like the reference's, a dropped mode errs by the difference of the
+    two peaks (``_remainder_hz``)."""
     from .sim.linearise import _static_stiffness
     ix = list(scene.cases)
     c = coefficients(w)[ix]
-    C = loads.C[np.ix_(ix, ix)]
-    energy = float(c @ np.where(c[:, None] * c[None, :] == 0, 0.0, C) @ c)
+    energy = _energy(loads, ix, c)
     if not np.isfinite(energy) or energy <= 0:
         return None
+    model, f_hz = setting.model, setting.f_hz
     lam = model.eigenvalues
     Ks, f0 = _static_stiffness(model, w)
+    if np.linalg.eigvalsh((Ks + Ks.T) / 2).min() <= 0 or _unstable(model, w, scene):
+        return np.nan, np.nan, np.nan, np.zeros(model.nf)
     q = np.linalg.solve(Ks, f0)
-    rest = max(0.0, 1.0 - float(np.sum((loads.P[:, ix] @ c) ** 2 / lam)) / energy) * energy
-    A = amplification(scene.f_exc, f_hz)
-    top = amplification(scene.f_exc, [_beyond_hz(loads, ix, c, lam, f_hz, rest)])[0] if rest > 1e-12 * energy else 1.0
-    total = float(q @ (lam * q)) + rest
+    if setting.reach is not None and float(np.abs(q) @ setting.reach) > SMALL_DEFORMATION:
+        return np.nan, np.nan, np.nan, np.zeros(model.nf)  # beyond small deformations: linear modes do not apply
+    rest = _beyond(loads, ix, c, lam, energy)
     drop = np.ones(model.nf, bool)
     drop[list(kept)] = False
+    peak = response_factors(f_hz, scene.rise_s)[0]
+    beyond, held = (response_factors([f], scene.rise_s)[0][0]
+                    for f in _remainder_hz(loads, ix, c, lam, f_hz, rest, drop))
+    total = float(q @ (lam * q)) + rest
     d = q - _galerkin(Ks, f0, np.eye(model.nf)[:, list(kept)])
-    gain = np.where(drop, A, 1.0)
-    without = np.sqrt((np.sum(lam * (d * gain) ** 2) + rest * top**2) / total)
+    without = np.sqrt((np.sum(lam * (d * np.where(drop, peak, 1.0)) ** 2) + rest * beyond**2) / total)
+    if not set(ix) & set(residual):
+        return float(without), float(without), float(np.sqrt(np.sum(lam * d**2) / total)), lam * d**2
     basis = np.column_stack([np.eye(model.nf)[:, list(kept)], loads.P[:, list(residual)] / lam[:, None]])
     dB = q - _galerkin(Ks, f0, basis)
-    excess = np.where(drop, A - 1.0, 0.0)
-    beyond = top - 1 if set(ix) <= set(residual) else top  # the residual vectors hold the static part beyond
-    with_res = np.sqrt((np.sum(lam * dB**2) + np.sum(lam * (q * excess) ** 2) + rest * beyond**2) / total)
+    moved = np.where(drop, peak - held, 0.0)  # a dropped mode's peak answered at the residual vector's frequency
+    bare = np.where(np.isin(ix, residual), 0.0, c)  # the cases without a residual vector miss what lies beyond
+    missed = _beyond(loads, ix, bare, lam, _energy(loads, ix, bare)) * beyond**2 if bare.any() else 0.0
+    with_res = np.sqrt((np.sum(lam * dB**2) + np.sum(lam * (q * moved) ** 2) + missed) / total)
     return float(without), float(with_res), float(np.sqrt(np.sum(lam * dB**2) / total)), lam * dB**2
 
 
-def _beyond_hz(loads: InertiaLoads, ix, c: np.ndarray, lam: np.ndarray, f_hz: np.ndarray, rest: float) -> float:
-    """The frequency [Hz] at which the static part beyond the file's modes answers: the Rayleigh quotient of
-    that part, ``rest / (u^T M u - sum_k (P_k c / lambda_k)^2)`` (docs/modes.md), never below the last mode's;
-    the last mode's where U is unknown."""
+@dataclass(frozen=True)
+class _Setting:
+    """What the predictions need of the body: the term set's model, the frequencies [Hz] and each mode's
+    largest nodal deflection over the largest dimension (None without nodal data)."""
+
+    model: object
+    f_hz: np.ndarray
+    reach: np.ndarray | None
+
+    @classmethod
+    def of(cls, body: FlexibleBody, terms) -> "_Setting":
+        nodal = body.nodal_summary()
+        reach = None if nodal is None else nodal.max_deflection / nodal.largest_dimension
+        return cls(build_model(body, terms), body.frequencies_hz, reach)
+
+
+def _unstable(model, w: np.ndarray, scene: SceneDemand) -> bool:
+    """Whether a free body's steady spin w is unstable by the term set's linearisation (sim.linearise, theory
+    10): its spin axis then wanders and loads cases the scene's nominal spin does not (a prescribed spin cannot
+    wander)."""
+    from .sim.linearise import linearise
+    if scene.prescribed:
+        return False
+    s = float(np.linalg.norm(w))
+    return bool(linearise(model, w / s, s).unstable)
+
+
+def _energy(loads: InertiaLoads, ix, c: np.ndarray) -> float:
+    """``f^T K^+ f`` of the load ``sum_j c_j f_j`` over the cases ``ix`` (NaN where a needed compliance is
+    unknown; the cross compliances of cases with a zero weight are not needed)."""
+    C = loads.C[np.ix_(ix, ix)]
+    return float(c @ np.where(c[:, None] * c[None, :] == 0, 0.0, C) @ c)
+
+
+def _beyond(loads: InertiaLoads, ix, c: np.ndarray, lam: np.ndarray, energy: float) -> float:
+    """The static energy of that load beyond the file's modes, ``energy - sum_k (P_k c)^2 / lambda_k``."""
+    return max(0.0, energy - float(np.sum((loads.P[:, ix] @ c) ** 2 / lam)))
+
+
+def _remainder_hz(loads: InertiaLoads, ix, c: np.ndarray, lam: np.ndarray, f_hz: np.ndarray, rest: float,
+                  drop: np.ndarray) -> tuple[float, float]:
+    """(beyond, residual) [Hz]: the Rayleigh frequencies of the static part beyond the file's modes, ``rest /
+    (u^T M u - sum_k (P_k c / lambda_k)^2)``, and of what a residual vector holds, that part plus the dropped
+    modes' static parts (docs/modes.md); never below the last mode's; the last mode's where U is unknown."""
+    top = float(f_hz[-1])
     if loads.UMU is None:
-        return float(f_hz[-1])
-    mass = float(c @ loads.UMU[np.ix_(ix, ix)] @ c - np.sum(((loads.P[:, ix] @ c) / lam) ** 2))
-    if mass <= 0:
-        return float(f_hz[-1])
-    per_hz = f_hz[-1] / np.sqrt(lam[-1])  # Hz per sqrt(eigenvalue)
-    return float(max(f_hz[-1], np.sqrt(rest / mass) * per_hz))
+        return top, top
+    Pc = loads.P[:, ix] @ c
+    mass = float(c @ loads.UMU[np.ix_(ix, ix)] @ c - np.sum((Pc / lam) ** 2))
+    per_hz = top / np.sqrt(lam[-1])  # Hz per sqrt(eigenvalue)
+    rayleigh = lambda e, m: float(max(top, np.sqrt(e / m) * per_hz)) if m > 0 and e > 0 else top  # noqa: E731
+    return (rayleigh(rest, mass),
+            rayleigh(rest + np.sum(Pc[drop] ** 2 / lam[drop]), mass + np.sum((Pc[drop] / lam[drop]) ** 2)))
 
 
 def _galerkin(K: np.ndarray, f: np.ndarray, B: np.ndarray) -> np.ndarray:

@@ -2,7 +2,7 @@
 
 Reference: the body with all its modes and the static deflections of all six centrifugal load cases as
 residual vectors. Candidates: the advised body (``modeset.reduced_body``), the advised modes without their
-residual vectors, and the first k modes for several k. Every basis runs the same scenes with the same term
+residual vectors, the first k modes for several k, and all modes. Every basis runs the same scenes with the same term
 set (compiled DOP853); modal coordinates differ between bases, so the runs are compared in what every basis
 expresses: the spin w, the orientation, the largest nodal displacement and the peak von Mises stress
 recovered from the nodal stress tensors, each relative to the reference's amplitude (theory 10; the last two
@@ -63,15 +63,17 @@ class ModeSetProof:
 
 
 def bases(body: FlexibleBody, advice: ModeAdvice, loads: InertiaLoads) -> dict[str, FlexibleBody]:
-    """The reference and the candidate bases by name (first-k for k at a quarter, half and the advised size)."""
+    """The reference and the candidate bases by name: the advised body, its modes alone, the first k modes (k at
+    a quarter, half and the advised size) and all modes without residual vectors."""
     from .augment import with_residual_vectors
     out = {"reference": with_residual_vectors(body, loads.U, "mode-set reference: all six centrifugal cases "
                                               "as residual vectors"),
            "advised": reduced_body(body, advice, loads)}
     if advice.residual_cases:
         out["advised modes only"] = body.with_modes(list(advice.kept))
-    for k in sorted({max(1, body.nf // 4), max(1, body.nf // 2), min(body.nf, advice.size)}):
+    for k in sorted({max(1, body.nf // 4), max(1, body.nf // 2), min(body.nf, advice.size)} - {body.nf}):
         out[f"first {k}"] = body.first_modes(k)
+    out["all modes"] = body
     return out
 
 

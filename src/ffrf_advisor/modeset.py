@@ -245,14 +245,12 @@ class ModeAdvice:
         if worst is None:
             verdict = "carry the scenes (error not bounded: no compliance; the frequency band decided)"
         elif np.isnan(worst):
-            verdict = "cannot be judged: a scene has no stable small deflection (see the notes)"
+            verdict = "cannot be judged for every scene (see the notes)"
         elif worst <= self.tolerance:
             verdict = f"carry the scenes within {self.tolerance:g} (predicted {worst:.2g})"
         else:
             scene = self.scenes[[p[1] if res else p[0] for p in self.predicted].index(worst)].label
             verdict = f"leave a predicted error {worst:.2g} > {self.tolerance:g} in {scene}: verify by simulation"
-        if any("beyond the file's last mode" in n for n in self.notes):
-            verdict += " of the file's modes, whose last is inside a scene's band (see the notes)"
         text = (f"{len(self.kept)} of {self.nf} modes{vectors} {verdict}; right-hand side cost x"
                 f"{1 / self.rhs_ratio:.3g} of all modes'; explicit step x{self.step_ratio_modes:.3g}")
         if res:
@@ -313,13 +311,16 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
         cases = [_case_error(j, kept, body, loads, p, tol, weight[j]) for j in applied]
     scenes = [replace(s, weights=tuple(_weight(loads, s.cases, floor, w) for w in s.directions)) for s in scenes]
     top = float(body.frequencies_hz[-1])
+    beyond = [band * s.f_exc > top for s in scenes]
     notes += [f"{s.label} excites up to {s.f_exc:.4g} Hz; its band ({band:g} x) ends above the file's last mode "
-              f"({top:.4g} Hz): compute more modes to bound its error" for s in scenes if band * s.f_exc > top]
+              f"({top:.4g} Hz): no prediction, compute more modes" for s, out in zip(scenes, beyond) if out]
     kept, predicted = _widened(kept, residual, modes, scenes, loads, _Setting.of(body, a.advice.terms), tol)
+    predicted = [(np.nan, np.nan) + p[2:] if out and p[0] is not None else p for p, out in zip(predicted, beyond)]
     notes += [f"{sc.label}: at {sc.speed / float(TIME[body.units.time]):.4g} rad/s the term set has no stable small "
               f"deflection along one of its spins (above a critical speed, a free spin that wanders, or a static "
               f"deflection beyond {SMALL_DEFORMATION:g} of the body's size): the prediction does not apply; verify "
-              "by simulation" for sc, p in zip(scenes, predicted) if p[0] is not None and np.isnan(p[0])]
+              "by simulation" for sc, p, out in zip(scenes, predicted, beyond)
+              if p[0] is not None and np.isnan(p[0]) and not out]
     terms = tuple(a.advice.terms)
     size = len(kept) + len(residual)
     return ModeAdvice(body.nf, kept, residual, modes, cases,

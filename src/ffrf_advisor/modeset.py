@@ -26,6 +26,7 @@ from .amplitudes import FLOOR, SMALL_DEFORMATION
 from .analysis import Analysis
 from .body import CASES, SYM_PAIRS, FlexibleBody
 from .errors import FFRFError
+from .fe.stress import modal_von_mises
 from .significance import f_cf1
 from .sim.cost import rhs_cost
 from .sim.model import build_model
@@ -99,18 +100,11 @@ def inertia_loads(body: FlexibleBody) -> InertiaLoads:
     U = static_deflections(X, fe.Ms, K, F)
     n = len(X)
     P = fe.Phi.reshape(3 * n, body.nf).T @ F
-    stress = None if fe.material is None else _von_mises(fe, U)
+    stress = None if fe.material is None else modal_von_mises(fe.mesh, fe.material, U.reshape(n, 3, -1))
     C = F.T @ U
     return InertiaLoads(P, (C + C.T) / 2, "FE nodal sums (K^+ f by one factorisation)", U,
                         U.T @ (full_mass(fe.Ms) @ U), stress,
                         np.full(6, np.nan) if stress is None else stress.max(axis=0))
-
-
-def _von_mises(fe, U: np.ndarray) -> np.ndarray:
-    """Nodal von Mises stress (n, m) of displacement fields U (3n, m)."""
-    from .fe.stress import nodal_stress, von_mises
-    n = fe.mesh.n_nodes
-    return von_mises(nodal_stress(fe.mesh, fe.material, U.reshape(n, 3, -1)).transpose(0, 3, 1, 2))
 
 
 def participation(loads: InertiaLoads, eigenvalues: np.ndarray) -> np.ndarray:
@@ -301,7 +295,7 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
     modes = [_choice(k, body, scenes, p, share, applied, tol, band) for k in range(body.nf)]
     kept, notes = tuple(m.mode for m in modes if m.keep), []
     floor = FLOOR * a.amplitudes.sigma_allow
-    weight = {j: _weight(loads, [j], floor, max(s.speed for s in scenes if j in s.cases) * np.eye(3)[0])
+    weight = {j: _weight(loads.sigma[j] * max(s.speed for s in scenes if j in s.cases) ** 2, floor)
               for j in applied}
     cases = [_case_error(j, kept, body, loads, p, tol, weight[j]) for j in applied]
     residual = tuple(j for j, c in zip(applied, cases) if c.residual)
@@ -309,7 +303,8 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
         kept = (0,)
         notes.append("no mode is needed within the tolerance; mode 1 kept so that the body has one")
         cases = [_case_error(j, kept, body, loads, p, tol, weight[j]) for j in applied]
-    scenes = [replace(s, weights=tuple(_weight(loads, s.cases, floor, w) for w in s.directions)) for s in scenes]
+    scenes = [replace(s, weights=tuple(_weight(_stress_at(loads, s.cases, w), floor) for w in s.directions))
+              for s in scenes]
     top = float(body.frequencies_hz[-1])
     beyond = [band * s.f_exc > top for s in scenes]
     notes += [f"{s.label} excites up to {s.f_exc:.4g} Hz; its band ({band:g} x) ends above the file's last mode "
@@ -378,17 +373,19 @@ def _choice(k: int, body, scenes, p, share, applied, tol: float, band: float) ->
     return ModeChoice(k, f, float(pk), float(sk), keep, reason)
 
 
-def _weight(loads: InertiaLoads, cases, floor: float, w: np.ndarray) -> float:
-    """What a relative error of these cases counts for at spin w: their stress there (a bound, ``sum_j |c_j(w)|
-    sigma_j``; a single case at the speed |w|) over the larger of it and the floor (a tenth of sigma_allow, as
-    verify's errors: amplitudes.FLOOR); 1 where a stress is unknown. A spin that barely stresses the body
-    needs no residual vector for it (docs/modes.md)."""
-    ix = list(cases)
-    c = np.abs(coefficients(w))[ix] if len(ix) > 1 else np.array([float(np.dot(w, w))])
-    sigma = float(c @ loads.sigma[ix])
+def _weight(sigma: float, floor: float) -> float:
+    """What a relative error counts for where the response's peak stress is ``sigma``: sigma over the larger
+    of it and the floor (a tenth of sigma_allow, as verify's errors: amplitudes.FLOOR); 1 where the stress is
+    unknown. A spin that barely stresses the body needs no residual vector for it (docs/modes.md)."""
     if not np.isfinite(sigma) or sigma <= 0:
         return 1.0
     return float(sigma / max(sigma, floor))
+
+
+def _stress_at(loads: InertiaLoads, cases, w: np.ndarray) -> float:
+    """A bound of the peak stress of the applied cases' load at spin w, ``sum_j |c_j(w)| sigma_j``."""
+    ix = list(cases)
+    return float(np.abs(coefficients(w))[ix] @ loads.sigma[ix])
 
 
 def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float, weight: float) -> CaseError:
@@ -401,7 +398,8 @@ def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float, weight: 
         q = loads.P[ix, j] / body.eigenvalues[ix]
         n = body.fe.mesh.n_nodes
         rest = loads.U[:, j] - body.fe.Phi[:, :, ix].reshape(3 * n, len(ix)) @ q
-        stress = float(_von_mises(body.fe, rest[:, None]).max() / loads.stress[:, j].max())
+        field = rest.reshape(n, 3, 1)
+        stress = float(modal_von_mises(body.fe.mesh, body.fe.material, field).max() / loads.stress[:, j].max())
     worst = max((e for e in (energy, stress) if e is not None), default=None)
     return CaseError(CASES[j], energy, stress, worst is not None and worst * weight > tol, weight)
 

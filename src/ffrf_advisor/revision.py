@@ -65,14 +65,15 @@ def shared_nodes(old: FlexibleBody, new: FlexibleBody) -> bool:
     return bool(np.abs(X - Y).max() <= 1e-9 * old.largest_dimension())
 
 
-def mac_matrix(old: FlexibleBody, new: FlexibleBody) -> np.ndarray:
-    """(nf_old, nf_new): ``(a^T M b)^2 / (a^T M a)(b^T M b)`` with the old body's mass."""
+def mac_matrix(old: FlexibleBody, new: FlexibleBody) -> tuple[np.ndarray, np.ndarray]:
+    """(MAC, cross), both (nf_old, nf_new): ``cross = a^T M b`` and ``MAC = cross^2 / (a^T M a)(b^T M b)``
+    with the old body's mass (the sign of ``cross`` turns a new mode onto its old pair)."""
     n = old.fe.mesh.n_nodes
     M = full_mass(old.fe.Ms)
     A, B = old.fe.Phi.reshape(3 * n, -1), new.fe.Phi.reshape(3 * n, -1)
     MA = M @ A
     cross = MA.T @ B
-    return cross**2 / np.outer(np.einsum("ip,ip->p", A, MA), np.einsum("ip,ip->p", B, M @ B))
+    return cross**2 / np.outer(np.einsum("ip,ip->p", A, MA), np.einsum("ip,ip->p", B, M @ B)), cross
 
 
 def pairing(old: FlexibleBody, new: FlexibleBody) -> tuple[list[tuple[int, int, float]], str, np.ndarray]:
@@ -81,13 +82,10 @@ def pairing(old: FlexibleBody, new: FlexibleBody) -> tuple[list[tuple[int, int, 
     k = min(old.nf, new.nf)
     if not shared_nodes(old, new):
         return [(p, p, np.nan) for p in range(k)], "order (no shared nodes: mode shapes not compared)", np.ones(k)
-    mac = mac_matrix(old, new)
+    mac, cross = mac_matrix(old, new)
     rows, cols = best_pairs(mac)
-    n = old.fe.mesh.n_nodes
-    M = full_mass(old.fe.Ms)
-    A, B = old.fe.Phi.reshape(3 * n, -1), new.fe.Phi.reshape(3 * n, -1)
-    signs = np.sign(np.einsum("ip,ip->p", M @ A[:, rows], B[:, cols]))
-    return [(int(r), int(c), float(mac[r, c])) for r, c in zip(rows, cols)], "MAC (shared nodes)", signs
+    pairs = [(int(r), int(c), float(mac[r, c])) for r, c in zip(rows, cols)]
+    return pairs, "MAC (shared nodes)", np.sign(cross[rows, cols])
 
 
 def rayleigh_mismatch(body: FlexibleBody) -> float | None:

@@ -393,6 +393,21 @@ def sample(name: str = typer.Argument(..., help=f"One of: {', '.join(SAMPLES)}."
                 f"{body.fe.mesh.n_nodes} nodes")
 
 
+ModeSet = Annotated[str, typer.Option("--modes", help="all, or advised: the mode set `modes BODY` advises for its "
+                                                      "default scenes with the config file's analysis options "
+                                                      "(theory 12; kept modes and residual vectors).")]
+
+
+def _mode_set(body, modes: str, options, source: str):
+    """``body`` itself (--modes all) or reduced to its advised mode set (--modes advised, modeset.advised_body)."""
+    if modes not in ("all", "advised"):
+        raise FFRFError(f"--modes {modes!r}: expected all or advised")
+    if modes == "all":
+        return body
+    from .modeset import advised_body
+    return advised_body(run_analysis(body, options), source)
+
+
 @app.command()
 @handles_errors
 def convert(source: Path = typer.Argument(..., help="Body file to read."),
@@ -408,7 +423,8 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
             poisson: Optional[float] = typer.Option(None, "--poisson", help="meshio meshes: Poisson's ratio."),
             transform: bool = typer.Option(False, "--transform", help="Move the frame to the centre of mass and "
                                                                       "the principal axes (theory 4), as the "
-                                                                      "CalculiX and meshio readers do.")):
+                                                                      "CalculiX and meshio readers do."),
+            modes: ModeSet = "all"):
     """Convert a body between formats (see `ffrf-advisor formats`); refuses to overwrite without --force."""
     from .io import write_body
     from .io.atomic import check_target
@@ -418,9 +434,54 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
     body = read_any(source, eigenvalues, density, from_format, young=young, poisson=poisson)
     if transform:
         body = body.moved_to_principal_frame()
+    if modes != "all":
+        body = _mode_set(body, modes, AnalysisArgs(eigenvalues=eigenvalues, density=density).options(_note),
+                         str(source))
     write_body(body, target, fmt.name, overwrite=force)
     out().print(f"wrote {shown(target)} ({fmt.name}): {shown(body.name)}, {body.nf} modes"
                 + ("" if body.fe is not None else ", invariants only"))
+
+
+@app.command()
+@handles_errors
+@analysis_options
+def export(body: Path = typer.Argument(..., help="Body file with nodal FE data."),
+           output: Path = typer.Option(..., "--output", "-o", help="Directory for the body, the scene and the "
+                                                                   "script."),
+           solver: str = typer.Option("exudyn", "--solver", help="The multibody code: exudyn (for Adams, "
+                                                                 "RecurDyn and Chrono see `settings`)."),
+           modes: ModeSet = "all",
+           omega0: str = typer.Option("0,0,0", "--omega0", help="The scene's initial angular velocity WX,WY,WZ "
+                                                                "[rad/s]."),
+           q0: Optional[str] = typer.Option(None, "--q0", help="Initial modal coordinates (body units), or 'qmax'."),
+           qd0: Optional[str] = typer.Option(None, "--qd0", help="Initial modal velocities (body units)."),
+           t_end: float = typer.Option(0.1, "--t-end", help="End time [s]."),
+           step: Optional[float] = typer.Option(None, "--step", help="Fixed RK44 step [s] (default: 0.1 over the "
+                                                                     "highest mode's circular frequency)."),
+           output_step: Optional[float] = typer.Option(None, "--output-step", help="Sampling interval [s] "
+                                                                                   "(default: 500 samples)."),
+           force: bool = typer.Option(False, "--force", help="Replace the files in OUTPUT."), *, args: AnalysisArgs):
+    """Write the body and a runnable script for another multibody code (docs/export.md): for EXUDYN the data
+    of its ObjectFFRFreducedOrder and run_exudyn.py, which runs a free-body scene and writes its trajectory."""
+    from .export import exudyn
+    from .report.console import shown
+    from .sim.model import initial_state
+    from .sim.setup import simulation_setup
+    from .units import TIME
+    if solver != "exudyn":
+        raise FFRFError(f"--solver {solver!r}: expected exudyn (export writes EXUDYN bodies; for "
+                        f"{', '.join(s for s in SOLVERS if s != 'exudyn')} see `ffrf-advisor settings --solver`)")
+    options = args.options(_note)
+    b = _mode_set(args.read(body), modes, options, str(body))
+    seconds = float(TIME[b.units.time])
+    setup = simulation_setup(b, t_end, step if step is not None else exudyn.default_step(b) * seconds,
+                             output_step, "rk4")
+    y0 = initial_state(b, *_start(b, options, setup.per_second, omega0, q0, qd0))
+    scene = exudyn.scene_of(y0, b.nf, setup.t_end, setup.step, setup.output_step)
+    paths = exudyn.write(b, scene, output, str(body), force)
+    out().print(f"wrote {', '.join(shown(p) for p in paths)}: {shown(b.name)}, {b.nf} modes; run it with "
+                f"python {shown(paths[-1])} (needs pip install exudyn)")
+    notes().print(f"note: {exudyn.NOTE}", markup=False, highlight=False)
 
 
 @app.command()
@@ -601,7 +662,6 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
              force: bool = typer.Option(False, "--force", help="Overwrite OUTPUT."),
              as_json: SimulateJson = False, *, args: AnalysisArgs):
     """Simulate the free body with a term set (theory sections 5, 10); exit 3 when the integration fails."""
-    import numpy as np
     from .io import sha256
     from .io.atomic import not_an_input
     from .names import FIXED
@@ -609,7 +669,7 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     from .sim.integrate import integrate
     from .sim.model import build_model, initial_state
     from .sim.output import check_output, summary, write_trajectory
-    from .sim.setup import check_initial_state, check_tolerances, q_max_of, simulation_setup
+    from .sim.setup import check_tolerances, simulation_setup
     from .terms import parse_terms
     if output is not None:
         check_output(output, force)
@@ -622,10 +682,7 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     setup = simulation_setup(b, t_end, step, output_step, integrator)
     if integrator not in FIXED:
         check_tolerances(rtol, atol)
-    start = q_max_of(b, options.amplitudes) if q0 is not None and q0.strip() == "qmax" else numbers("--q0", q0)
-    w0, v0 = numbers("--omega0", omega0), numbers("--qd0", qd0)
-    check_initial_state(b, w0, start, None if v0 is None else np.asarray(v0) * setup.per_second)
-    y0 = initial_state(model, np.array(w0) * setup.per_second, () if start is None else start, v0 or ())
+    y0 = initial_state(model, *_start(b, options, setup.per_second, omega0, q0, qd0))
     with progress_bar(notes()) as progress:
         run = integrate(model, y0, setup.t_end, integrator, setup.step, rtol, atol, setup.output_step,
                         progress=progress)
@@ -639,6 +696,17 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
         simulation_report(out(), result, output)
     if run.failed:
         raise typer.Exit(EXIT_DIVERGED)
+
+
+def _start(b, options, per_second: float, omega0: str, q0: Optional[str], qd0: Optional[str]):
+    """--omega0 [rad/s], --q0 (numbers or 'qmax', theory 6) and --qd0 as (w0, q0, qd0) in the body's units,
+    checked (sim.setup.check_initial_state)."""
+    import numpy as np
+    from .sim.setup import check_initial_state, q_max_of
+    start = q_max_of(b, options.amplitudes) if q0 is not None and q0.strip() == "qmax" else numbers("--q0", q0)
+    w0, v0 = numbers("--omega0", omega0), numbers("--qd0", qd0)
+    check_initial_state(b, w0, start, None if v0 is None else np.asarray(v0) * per_second)
+    return np.array(w0) * per_second, () if start is None else start, v0 or ()
 
 
 @app.command("verify")

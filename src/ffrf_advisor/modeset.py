@@ -554,3 +554,9 @@ def reduced_body(body: FlexibleBody, advice: ModeAdvice, loads: InertiaLoads, so
         raise FFRFError(f"{source}: modes/Phi: expected nodal FE data to add residual vectors, got invariants only")
     note += f"; residual vectors of the centrifugal cases {', '.join(CASES[j] for j in advice.residual_cases)}"
     return with_residual_vectors(kept, loads.U[:, list(advice.residual_cases)], note, source)
+
+
+def advised_body(a: Analysis, source: str = "BODY") -> FlexibleBody:
+    """The body reduced to the mode set advised for the default scenes (``modes BODY -o``'s body, theory 12)."""
+    loads = inertia_loads(a.body)
+    return reduced_body(a.body, advise_modes(a, loads=loads), loads, source)

@@ -132,7 +132,8 @@ def strips(B: np.ndarray, upper: bool) -> np.ndarray:
 
 
 def initial_state(model: Model, omega0=(0.0, 0.0, 0.0), q0=(), qd0=()) -> np.ndarray:
-    """``y0 = [1, 0, 0, 0, omega0, q0, qd0]``: body frame = inertial frame at t = 0; missing modes are zero."""
+    """``y0 = [1, 0, 0, 0, omega0, q0, qd0]``: body frame = inertial frame at t = 0; missing modes are zero
+    (``model``: anything with the number of modes ``nf``, a FlexibleBody too)."""
     nf = model.nf
     y = np.zeros(N_ROT + 2 * nf)
     y[0] = 1.0

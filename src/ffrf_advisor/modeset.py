@@ -134,15 +134,18 @@ class SceneDemand:
 def scene_demands(a: Analysis, names, tolerance: float, f_max: float | None = None) -> list[SceneDemand]:
     """The demands of the named verification scenes (verify.scenes, theory 10) on ``a``'s body: a case
     applies when its weight is above ``tolerance`` of the largest (a wobble of 1 % brings the cross case
-    at 0.02); the minor-axis scene ends about the major axis and applies its case too."""
+    at 0.02); the minor-axis scene's wobble turns about its spin axis (both cross cases) and it ends about the
+    major axis, whose case applies too."""
     from .verify.scenes import SceneOptions, make_scenes, stable_axes
     per_s = float(TIME[a.body.units.time])
     out = []
     for sc in make_scenes(names, a, SceneOptions()):
         w = sc.omega0 if np.any(sc.omega0) else sc.speed * np.eye(3)[sc.axis]
         directions = [w]
-        if sc.name == "minor-axis":  # ends about the major axis with the same angular momentum
-            major = stable_axes(a)[0]
+        if sc.name == "minor-axis":  # its wobble turns about the spin axis; it ends about the major axis with the
+            major = stable_axes(a)[0]   # same angular momentum
+            k = sc.axis
+            directions.append(w[k] * np.eye(3)[k] + np.linalg.norm(np.delete(w, k)) * np.eye(3)[(k + 2) % 3])
             directions.append(np.eye(3)[major] * np.linalg.norm(a.body.I0 @ w) / a.body.I0[major, major])
         cases = sorted({j for d in directions for j, c in enumerate(np.abs(coefficients(d)))
                         if c > tolerance * np.abs(coefficients(d)).max()})
@@ -261,26 +264,51 @@ def response_factors(f_hz, rise_s: float) -> tuple[np.ndarray, np.ndarray]:
     """(total, excess) per mode: the largest ``|x|`` and dynamic part ``|x - g|`` of ``x'' + Omega^2 x =
     Omega^2 g(t)``, x(0) = x'(0) = 0, for the load shape of a spin rising as ``spin_profile`` over ``rise_s``,
     ``g = (w / W)^2`` (a step at 0), then held: a mode's response over its static response at full spin
-    (docs/modes.md). Exact for g linear between RISE_STEPS points (the profile's curvature leaves about 1e-6 of the response):
-    ``y = x - g`` turns as a free oscillation within each segment and its rate jumps by the change of slope at
-    each point; its amplitude bounds ``|x - g|`` (held, it keeps that amplitude)."""
-    from .sim.loads import spin_profile
+    (docs/modes.md)."""
     om = 2 * np.pi * np.atleast_1d(np.asarray(f_hz, float))
     if rise_s <= 0:
         return np.full_like(om, 2.0), np.ones_like(om)
+    t, w, _ = _rise(rise_s)
+    return _peaks(om, t, w**2)
+
+
+def euler_factors(f_hz, rise_s: float) -> tuple[np.ndarray, float]:
+    """(total per mode, A): the largest ``|x|`` of ``x'' + Omega^2 x = Omega^2 h(t)``, x(0) = x'(0) = 0, for the
+    shape ``h = a (w / W)^2 / A`` of the load the spin's rise puts on the deflection it causes (Euler
+    ``-C(q)^T w'`` and Coriolis ``-2 C(q')^T w`` with q following ``(w / W)^2``; docs/modes.md), ``a = w' /
+    W``, A its largest value [1/s]; (0, 0) without a rise."""
+    om = 2 * np.pi * np.atleast_1d(np.asarray(f_hz, float))
+    if rise_s <= 0:
+        return np.zeros_like(om), 0.0
+    t, w, a = _rise(rise_s)
+    h = a * w**2
+    return _peaks(om, t, h / h.max())[0], float(h.max())
+
+
+def _rise(rise_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(t, w / W, w' / W) at RISE_STEPS + 1 points of a rise (sim.loads.spin_profile)."""
+    from .sim.loads import spin_profile
     t = np.linspace(0.0, rise_s, RISE_STEPS + 1)
-    g = np.array([spin_profile(1.0, rise_s)(x)[0] for x in t]) ** 2
-    slope = np.append(np.diff(g) / np.diff(t), 0.0)  # held after the rise
-    y, v = np.zeros_like(om), -slope[0] / om  # y = x - g, v = y' / Omega
+    w, a = np.array([spin_profile(1.0, rise_s)(x) for x in t]).T
+    return t, w, a
+
+
+def _peaks(om: np.ndarray, t: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(largest |x|, largest |x - g|) of ``x'' + om^2 x = om^2 g(t)`` from rest, g linear between the points t
+    and held at g[-1] after them (a profile's curvature between RISE_STEPS points leaves about 1e-6 of the
+    response): ``y = x - g`` turns as a free oscillation within each segment and its rate jumps by the change
+    of slope at each point. |x| is taken at the points (within (om dt)^2 / 8 of its peak), |x - g| as the
+    amplitude of y, which bounds it (held, y keeps that amplitude)."""
+    slope = np.append(np.diff(g) / np.diff(t), 0.0)  # held after the last point
+    y, v = np.zeros_like(om) - g[0], -slope[0] / om  # y = x - g, v = y' / Omega
     c, s_ = np.cos(om * (t[1] - t[0])), np.sin(om * (t[1] - t[0]))
-    excess, total = np.zeros_like(om), np.zeros_like(om)
-    for i in range(RISE_STEPS):  # segment i: |y| stays within its amplitude, g within g[i + 1]
+    excess, total = np.abs(y), np.abs(y + g[0])
+    for i in range(len(t) - 1):
         y, v = y * c + v * s_, -y * s_ + v * c
-        amplitude = np.hypot(y, v)
-        excess, total = np.maximum(excess, amplitude), np.maximum(total, g[i + 1] + amplitude)
+        excess, total = np.maximum(excess, np.hypot(y, v)), np.maximum(total, np.abs(g[i + 1] + y))
         v = v - (slope[i + 1] - slope[i]) / om
-    held = np.hypot(y, v)  # after the rise: a free oscillation about g = 1
-    return np.maximum(total, 1.0 + held), np.maximum(excess, held)
+    held = np.hypot(y, v)  # after the last point: a free oscillation about g[-1]
+    return np.maximum(total, abs(g[-1]) + held), np.maximum(excess, held)
 
 
 def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = None, f_max: float | None = None,
@@ -325,9 +353,10 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
 
 
 def _widened(kept, residual, modes: list, scenes, loads: InertiaLoads, setting: "_Setting", tol: float):
-    """(kept, predictions): while a scene's static error at its spin stays above the tolerance in the advised
-    basis, the dropped mode carrying most of it joins (the spin softens the body and couples the modes:
-    docs/modes.md); ``modes`` is updated with the reason."""
+    """(kept, predictions): while a scene's static error at its spin (with the dropped modes' response to the
+    load its rise puts on the deflection, ``_rising``) stays above the tolerance in the advised basis, the
+    dropped mode carrying most of it joins (the spin softens the body and couples the modes: docs/modes.md);
+    ``modes`` is updated with the reason."""
     while True:
         predicted = [_predicted(s, kept, residual, loads, setting) for s in scenes]
         bad = [p for p in predicted if p[2] is not None and p[2] > tol]
@@ -336,8 +365,8 @@ def _widened(kept, residual, modes: list, scenes, loads: InertiaLoads, setting: 
             return kept, predicted
         worst = max(bad, key=lambda p: p[2])
         k = max(dropped, key=lambda k: worst[3][k])
-        modes[k] = replace(modes[k], keep=True, reason=f"keep: spun static error {worst[2]:.2g} > {tol:g} without "
-                                                       "it (the spin softens the body)")
+        modes[k] = replace(modes[k], keep=True, reason=f"keep: spun error {worst[2]:.2g} > {tol:g} without it (the "
+                                                       "spin softens the body, its rise loads the deflection)")
         kept = tuple(sorted((*kept, k)))
 
 
@@ -447,17 +476,46 @@ def _spun(w: np.ndarray, scene: SceneDemand, kept, residual, loads: InertiaLoads
     beyond, held = (response_factors([f], scene.rise_s)[0][0]
                     for f in _remainder_hz(loads, ix, c, lam, f_hz, rest, drop))
     total = float(q @ (lam * q)) + rest
+    rising = lam * (_rising(model, Ks, q, w, scene.rise_s, setting.seconds) * drop) ** 2  # dropped modes' part
     d = q - _galerkin(Ks, f0, np.eye(model.nf)[:, list(kept)])
-    without = np.sqrt((np.sum(lam * (d * np.where(drop, peak, 1.0)) ** 2) + rest * beyond**2) / total)
+    without = np.sqrt((np.sum(lam * (d * np.where(drop, peak, 1.0)) ** 2) + rest * beyond**2 + rising.sum()) / total)
     if not set(ix) & set(residual):
-        return float(without), float(without), float(np.sqrt(np.sum(lam * d**2) / total)), lam * d**2
+        return (float(without), float(without), float(np.sqrt((np.sum(lam * d**2) + rising.sum()) / total)),
+                lam * d**2 + rising)
     basis = np.column_stack([np.eye(model.nf)[:, list(kept)], loads.P[:, list(residual)] / lam[:, None]])
     dB = q - _galerkin(Ks, f0, basis)
     moved = np.where(drop, peak - held, 0.0)  # a dropped mode's peak answered at the residual vector's frequency
     bare = np.where(np.isin(ix, residual), 0.0, c)  # the cases without a residual vector miss what lies beyond
     missed = _beyond(loads, ix, bare, lam, _energy(loads, ix, bare)) * beyond**2 if bare.any() else 0.0
-    with_res = np.sqrt((np.sum(lam * dB**2) + np.sum(lam * (q * moved) ** 2) + missed) / total)
-    return float(without), float(with_res), float(np.sqrt(np.sum(lam * dB**2) / total)), lam * dB**2
+    static = np.sum(lam * dB**2) + rising.sum()
+    with_res = np.sqrt((static + np.sum(lam * (q * moved) ** 2) + missed) / total)
+    return float(without), float(with_res), float(np.sqrt(static / total)), lam * dB**2 + rising
+
+
+CORIOLIS = 4.0  # -2 C(q')^T w with q = q_s (w / W)^2 along a fixed axis: 4 (w / W)^2 w' C(q_s)^T e (docs/modes.md)
+
+
+def _rising(model, Ks: np.ndarray, q: np.ndarray, w: np.ndarray, rise_s: float, seconds: float) -> np.ndarray:
+    """Each mode's peak response to the load a rising spin puts on the deflection it causes (docs/modes.md):
+    while w = W e rises over ``rise_s``, the deflection q_s (w / W)^2 takes the Euler load ``-C(q)^T w'``
+    (term coupling) and the Coriolis load ``-2 C(q')^T w`` (cor_coupling), both ``-(w / W)^2 w' C(q_s)^T e``
+    in shape (C = Qf^T W3, sim.equations.coupling_matrix), so each mode answers ``K_s^-1`` of their peak times
+    its factor for that history (``euler_factors``); zero without a rise or those terms."""
+    speed = float(np.linalg.norm(w))
+    if rise_s <= 0 or speed == 0:
+        return np.zeros(model.nf)
+    D, A = euler_factors(model.eigenvalues**0.5 / (2 * np.pi * seconds), rise_s)
+    peak = A * speed * seconds  # max (w / W)^2 |w'| in the body's units (A [1/s] x W)
+    return D * np.linalg.solve(Ks, peak * rising_load(model, q, w / speed))
+
+
+def rising_load(model, q: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """The modal load of a spin rising about the unit axis e on its deflection q_s = q (w / W)^2, per unit
+    ``(w / W)^2 |w'|``: ``-(1 + 4) C(q)^T e`` with both terms, -C^T e with coupling alone, none without them
+    (C = Qf^T W3: sim.equations.coupling_matrix; docs/modes.md)."""
+    from .sim.equations import coupling_matrix
+    factor = float(model.on("coupling")) + CORIOLIS * float(model.on("cor_coupling"))
+    return -factor * coupling_matrix(model, q).T @ e
 
 
 @dataclass(frozen=True)
@@ -468,12 +526,13 @@ class _Setting:
     model: object
     f_hz: np.ndarray
     reach: np.ndarray | None
+    seconds: float = 1.0  # per time unit of the body
 
     @classmethod
     def of(cls, body: FlexibleBody, terms) -> "_Setting":
         nodal = body.nodal_summary()
         reach = None if nodal is None else nodal.max_deflection / nodal.largest_dimension
-        return cls(build_model(body, terms), body.frequencies_hz, reach)
+        return cls(build_model(body, terms), body.frequencies_hz, reach, float(TIME[body.units.time]))
 
 
 def _unstable(model, w: np.ndarray, scene: SceneDemand) -> bool:

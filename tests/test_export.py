@@ -99,6 +99,9 @@ def test_convert_modes_advised_writes_the_advised_body(tmp_path):
     reduced = read_body(target)
     assert reduced.nf == advice.size < read_body(BEAM).nf
     assert "mode set (theory 12)" in " ".join(reduced.provenance.notes)
+    fem = tmp_path / "beam_advised.fem"  # MBDyn's modal element with the advised modes (issue 27, item 3)
+    assert runner.invoke(app, ["convert", str(BEAM), str(fem), "--modes", "advised"]).exit_code == 0
+    assert np.array_equal(read_body(fem).eigenvalues, reduced.eigenvalues)
     r = runner.invoke(app, ["convert", str(BEAM), str(tmp_path / "x.ffrf.h5"), "--modes", "some"])
     assert r.exit_code == 2 and "--modes 'some'" in r.output
 

@@ -168,6 +168,6 @@ def write_body(body: FlexibleBody, path: str | os.PathLike, fmt: str | None = No
     f.write(body, path, overwrite=overwrite, **options)
 
 
-from . import calculix, ffinv, ffrf_h5, limits, meshio_modes, nastran  # noqa: E402  (register themselves)
+from . import calculix, ffinv, ffrf_h5, limits, mbdyn, meshio_modes, nastran  # noqa: E402  (register themselves)
 
-__all__ = ["Format", "register", "formats", "format_of", "check_reader_options", "read_body", "write_body", "calculix", "ffinv", "ffrf_h5", "limits", "meshio_modes", "nastran"]
+__all__ = ["Format", "register", "formats", "format_of", "check_reader_options", "read_body", "write_body", "calculix", "ffinv", "ffrf_h5", "limits", "mbdyn", "meshio_modes", "nastran"]

@@ -4,11 +4,9 @@ from __future__ import annotations
 
 import json
 import tracemalloc
-from pathlib import Path
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
 
 from ffrf_advisor.adams import to_adams
 from ffrf_advisor.cli import app
@@ -17,15 +15,8 @@ from ffrf_advisor.invariants import shape_integrals
 from ffrf_advisor.io import read_body, write_body
 from ffrf_advisor.io.mbdyn_records import file_rows
 
+from .test_adequacy import DIR as SAMPLES, beam, runner  # noqa: F401 - the beam with its FE data, a module fixture
 from .test_rotary import dumbbell
-
-SAMPLES = Path(__file__).resolve().parent.parent / "sample_bodies"
-runner = CliRunner()
-
-
-@pytest.fixture(scope="module")
-def beam():
-    return read_body(SAMPLES / "beam.ffrf.h5", load_fe=True)
 
 
 @pytest.fixture(scope="module")

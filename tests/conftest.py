@@ -8,6 +8,16 @@ from ffrf_advisor.fe_body import modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import Box, box_mesh, box_union_mesh
 
+@pytest.fixture(autouse=True)
+def _memory_limit_per_test():
+    """Each test starts and ends with the default memory limit: a CLI run with --max-memory sets it for the
+    process (io.limits.set_max_bytes), which would hold for the tests after it that read without the CLI."""
+    from ffrf_advisor.io import limits
+    limits.set_max_bytes(None)
+    yield
+    limits.set_max_bytes(None)
+
+
 SLENDER = (1000.0, 20.0, 10.0)  # length/height 100: Euler-Bernoulli within 1 % for two modes
 
 

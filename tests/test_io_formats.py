@@ -70,6 +70,8 @@ def test_info_and_convert_take_eigenvalues_and_density_for_meshes(tmp_path, beam
     assert np.abs(read_body(out).W2 - beam.W2).max() < 1e-12
     wrong = runner.invoke(app, ["info", str(SAMPLES / "beam.ffrf.h5"), "--density", "1"])
     assert wrong.exit_code == 2 and "meshio meshes only" in wrong.output
+    wrong = runner.invoke(app, ["analyze", str(SAMPLES / "beam.ffrf.h5"), "--units", "SI"])
+    assert wrong.exit_code == 2 and "--units apply to ANSYS results (.rst) only" in wrong.output
     simulated = runner.invoke(app, ["simulate", str(path), *opts, "--t-end", "1e-4", "--json"])
     assert simulated.exit_code == 0, simulated.output  # issue 23, item 12: simulate and verify take them too
     assert runner.invoke(app, ["simulate", str(path), "--t-end", "1e-4"]).exit_code == 2

@@ -18,7 +18,7 @@ from typer._click.exceptions import NoArgsIsHelpError, UsageError  # typer vendo
 from typer.core import TyperArgument, TyperGroup
 
 from . import __version__
-from .cli_options import AnalysisArgs, Density, Eigenvalues, analysis_options, numbers, read_any
+from .cli_options import AnalysisArgs, Density, Eigenvalues, UnitSystem, analysis_options, numbers, read_any
 from .errors import FFRFError
 from .names import INTEGRATORS, MAX_MEMORY_ENV, SAMPLES, SCENES, SCHEMA_COMMANDS, SOLVERS
 
@@ -201,13 +201,13 @@ ModesJson, DiffJson = _json_option("modes"), _json_option("diff")
 @app.command()
 @handles_errors
 def info(body: Path = typer.Argument(..., help="Body file (any format, see `formats`)."),
-         eigenvalues: Eigenvalues = None, density: Density = None,
+         eigenvalues: Eigenvalues = None, density: Density = None, units: UnitSystem = None,
          as_json: InfoJson = False):
     """Mass, CoM, I0, eigenfrequencies, modal stress and the checks of theory section 4."""
     from .checks import run_checks
     from .report.console import body_summary
     from .report.json_out import info_json
-    b = read_any(body, eigenvalues, density, load_fe=False)
+    b = read_any(body, eigenvalues, density, load_fe=False, units=units)
     checks = run_checks(b)
     if as_json:
         _print_json(info_json(b, checks, str(body)))
@@ -421,6 +421,7 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
                                                                         "response and geometric stiffness are "
                                                                         "computed (theory 9, 11)."),
             poisson: Optional[float] = typer.Option(None, "--poisson", help="meshio meshes: Poisson's ratio."),
+            units: UnitSystem = None,
             transform: bool = typer.Option(False, "--transform", help="Move the frame to the centre of mass and "
                                                                       "the principal axes (theory 4), as the "
                                                                       "CalculiX and meshio readers do."),
@@ -431,11 +432,11 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
     from .report.console import shown
     check_target(target, force)
     fmt = _writable(target, to_format)
-    body = read_any(source, eigenvalues, density, from_format, young=young, poisson=poisson)
+    body = read_any(source, eigenvalues, density, from_format, young=young, poisson=poisson, units=units)
     if transform:
         body = body.moved_to_principal_frame()
     if modes != "all":
-        body = _mode_set(body, modes, AnalysisArgs(eigenvalues=eigenvalues, density=density).options(_note),
+        body = _mode_set(body, modes, AnalysisArgs(eigenvalues=eigenvalues, density=density, units=units).options(_note),
                          str(source))
     write_body(body, target, fmt.name, overwrite=force)
     out().print(f"wrote {shown(target)} ({fmt.name}): {shown(body.name)}, {body.nf} modes"

@@ -46,6 +46,9 @@ Eigenvalues = Annotated[Optional[str], typer.Option(
     "--eigenvalues", help="meshio meshes: eigenvalues [1/s^2] as a comma list or a file (else field data).")]
 Density = Annotated[Optional[float], typer.Option(
     "--density", help="meshio meshes: density [t/mm^3] (else field data).")]
+UnitSystem = Annotated[Optional[str], typer.Option(
+    "--units", help="ANSYS results without /UNITS: MAPDL's SI, MKS, uMKS, CGS, MPA, BFT, BIN or e.g. t-mm-N-s "
+                    "(checked against the materials; else the one system they fit).")]
 
 @dataclass(frozen=True)
 class AnalysisArgs:
@@ -69,6 +72,7 @@ class AnalysisArgs:
     excitation: Excitation = None
     eigenvalues: Eigenvalues = None
     density: Density = None
+    units: UnitSystem = None
 
     def options(self, note: Callable[[str], None]) -> "Options":
         """analysis.Options from defaults < config file < command line; ``note`` tells how a bare speed
@@ -76,11 +80,11 @@ class AnalysisArgs:
         return build_options(self, note)
 
     def read(self, path: Path, **how):
-        """The body at ``path``, with the meshio reader's --eigenvalues and --density."""
-        return read_any(path, self.eigenvalues, self.density, **how)
+        """The body at ``path``, with the reader options (--eigenvalues, --density, --units)."""
+        return read_any(path, self.eigenvalues, self.density, units=self.units, **how)
 
     def mesh_options(self) -> dict:
-        return mesh_options(self.eigenvalues, self.density)
+        return mesh_options(self.eigenvalues, self.density, units=self.units)
 
 
 ANALYSIS_OPTIONS = {f.name: f.type for f in fields(AnalysisArgs)}  # name -> typer option
@@ -123,18 +127,19 @@ def numbers(option: str, text: str | None):
 
 
 def mesh_options(eigenvalues: str | None, density: float | None, young: float | None = None,
-                  poisson: float | None = None) -> dict:
-    """--eigenvalues/--density/--young/--poisson as reader options (meshio meshes only)."""
+                 poisson: float | None = None, units: str | None = None) -> dict:
+    """--eigenvalues/--density/--young/--poisson (meshio meshes) and --units (ANSYS) as reader options."""
     return {k: v for k, v in (("eigenvalues", numbers("--eigenvalues", eigenvalues)), ("density", density),
-                              ("young", young), ("poisson", poisson)) if v is not None}
+                              ("young", young), ("poisson", poisson), ("units", units)) if v is not None}
 
 
 def read_any(path: Path, eigenvalues: str | None = None, density: float | None = None, fmt: str | None = None,
-             load_fe: bool | str = True, young: float | None = None, poisson: float | None = None):
-    """Read any format; --eigenvalues/--density/--young/--poisson go to the meshio reader only; ``load_fe``
-    "summary": what the analysis needs of the nodal data (io.ffrf_h5.read)."""
+             load_fe: bool | str = True, young: float | None = None, poisson: float | None = None,
+             units: str | None = None):
+    """Read any format with its reader options (io.check_reader_options); ``load_fe`` "summary": what the
+    analysis needs of the nodal data (io.ffrf_h5.read)."""
     from .io import check_reader_options, read_body
-    given = mesh_options(eigenvalues, density, young, poisson)
+    given = mesh_options(eigenvalues, density, young, poisson, units)
     check_reader_options(path, given, fmt)
     return read_body(path, fmt, load_fe=load_fe, **given)
 

@@ -53,10 +53,18 @@ UNFORESEEN = (OSError, ValueError, KeyError, IndexError, TypeError, RuntimeError
               ArithmeticError, AttributeError, LookupError, RecursionError)  # not MemoryError: a bug to find
 
 
+MESH = ("meshio", "vtu")
+READER_OPTIONS = {"eigenvalues": MESH, "density": MESH, "young": MESH, "poisson": MESH, "units": ("ansys",)}
+
+
 def check_reader_options(path, options: dict, fmt: str | None = None) -> None:
-    """--eigenvalues/--density (reader options) apply to meshio meshes only: one line otherwise."""
-    if options and format_of(path, fmt).name not in ("meshio", "vtu"):
-        raise FFRFError(f"{path}: --{'/--'.join(options)} apply to meshio meshes only")
+    """Reader options apply to their formats only (--eigenvalues, --density, --young, --poisson to meshio
+    meshes, --units to ANSYS results): one line otherwise."""
+    name = format_of(path, fmt).name
+    wrong = [o for o in options if name not in READER_OPTIONS[o]]
+    if wrong:
+        where = "ANSYS results (.rst)" if READER_OPTIONS[wrong[0]] == ("ansys",) else "meshio meshes"
+        raise FFRFError(f"{path}: --{'/--'.join(wrong)} apply to {where} only")
 
 
 def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> FlexibleBody:
@@ -168,6 +176,6 @@ def write_body(body: FlexibleBody, path: str | os.PathLike, fmt: str | None = No
     f.write(body, path, overwrite=overwrite, **options)
 
 
-from . import calculix, ffinv, ffrf_h5, limits, mbdyn, meshio_modes, nastran  # noqa: E402  (register themselves)
+from . import ansys, calculix, ffinv, ffrf_h5, limits, mbdyn, meshio_modes, nastran  # noqa: E402  (register themselves)
 
-__all__ = ["Format", "register", "formats", "format_of", "check_reader_options", "read_body", "write_body", "calculix", "ffinv", "ffrf_h5", "limits", "mbdyn", "meshio_modes", "nastran"]
+__all__ = ["Format", "register", "formats", "format_of", "check_reader_options", "read_body", "write_body", "ansys", "calculix", "ffinv", "ffrf_h5", "limits", "mbdyn", "meshio_modes", "nastran"]

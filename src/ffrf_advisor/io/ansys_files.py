@@ -1,0 +1,242 @@
+"""An MAPDL modal run read from ``JOB.rst`` and ``JOB.full`` with ansys-mapdl-reader (the optional extra
+``ffrf-advisor[ansys]``), as the files hold it: the file's units and frame, before any requirement on it.
+Each file is read in a guarded reading child of its own (io.guard): what the library raises or a crash in it names
+that file.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import BodyFileError, FFRFError
+from .limits import Budget
+
+ANALYSES = {0: "static", 1: "buckling", 3: "harmonic", 4: "transient", 7: "substructure", 8: "spectrum"}
+HEXES = {(185, 8): "hexahedron", (186, 20): "hexahedron20"}  # (routine, nodes): ANSYS node order is VTK's
+FAMILIES = {"SOLID": (45, 92, 95, 185, 186, 187, 285), "SHELL": (63, 181, 208, 209, 281), "BEAM": (188, 189),
+            "MASS": (21,), "COMBIN": (14,), "LINK": (180,)}
+HEADER_WORDS = 10  # a row of the library's element table: 10 header words, then the element's nodes
+CORNERS = 8  # stresses of a hexahedron are written at its corners
+
+
+@dataclass
+class AnsysRun:
+    """A modal run in the file's units and global frame (theory 2): nodes, hexahedral cells ({} unless every
+    element is one), eigenvalues, modes, corner stresses per cell type, and the .full's M and K over the
+    node-interleaved DOFs ``3 i + c`` (K as stored: a constrained DOF keeps a unit diagonal only)."""
+
+    source: str
+    full: str
+    nodes: np.ndarray              # (n,) node numbers
+    points: np.ndarray             # (n, 3)
+    cells: dict[str, np.ndarray]   # meshio cell type -> (ne, nn) node indices
+    element_types: dict[str, int]  # e.g. {"SOLID186": 40}
+    materials: dict[int, dict[str, float]]  # MP tables (EX, NUXY, DENS, ...) by material number
+    cell_materials: set[int]       # the material numbers the elements use
+    units: str                     # the /UNITS record as the library names it ("User Defined", "SI", ...)
+    eigenvalues: np.ndarray        # (nm,) (2 pi f)^2
+    modes: np.ndarray              # (n, 3, nm) UX, UY, UZ
+    corner_stress: dict[str, np.ndarray] | None  # cell type -> (ne, 8, 6, nm) SX SY SZ SXY SYZ SXZ (float32);
+    # None when the run has no element stresses or not every element is a hexahedron
+    M: sp.csr_array
+    K: sp.csr_array
+    constrained: np.ndarray        # (3n,) bool: DOFs the .full's run held
+
+
+def library():
+    """ansys-mapdl-reader, imported quietly (it warns on import), or the one-line error naming the extra."""
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
+            warnings.simplefilter("ignore")
+            from ansys.mapdl import reader
+    except ImportError:
+        raise FFRFError("the ANSYS reader needs ansys-mapdl-reader: pip install 'ffrf-advisor[ansys]'") from None
+    return reader
+
+
+@contextlib.contextmanager
+def _silenced():
+    """The library's prints, warnings and what its C++ code writes to stderr before it aborts, silenced."""
+    saved, devnull = os.dup(2), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()), \
+                contextlib.redirect_stderr(io.StringIO()):
+            warnings.simplefilter("ignore")
+            yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
+def quietly(path, expected: str, fn, *args):
+    """``fn(*args)`` silenced; what the library raises -> one line naming ``path``."""
+    try:
+        with _silenced():
+            return fn(*args)
+    except FFRFError:
+        raise
+    except Exception as e:  # the library raises many kinds on damaged input (struct, assertions, index)
+        raise BodyFileError(path, "file", expected, f"{type(e).__name__}: {' '.join(str(e).split())[:160]}") \
+            from None
+
+
+def load_result(rst: str) -> AnsysRun:
+    """Nodes, elements, modes and stresses of the .rst (M and K still empty)."""
+    return quietly(rst, "a modal result file ansys-mapdl-reader can read (/FCOMP,RST,0)", _result, library(), rst,
+                   Budget(rst))
+
+
+def load_matrices(full: str, nodes: np.ndarray) -> tuple[sp.csr_array, sp.csr_array, np.ndarray]:
+    """M and K of the .full over the DOFs 3 i + c of ``nodes``, and the DOFs its run held."""
+    return quietly(full, "a .full file ansys-mapdl-reader can read", _matrices, library(), full, nodes, Budget(full))
+
+
+def _result(lib, rst: str, budget: Budget) -> AnsysRun:
+    """The run of a modal .rst with UX, UY, UZ per node, nodes sorted by number (M and K empty)."""
+    r = lib.read_binary(rst, parse_vtk=False)
+    if type(r) is not lib.rst.Result:
+        raise BodyFileError(rst, "file", "the result file of one modal run (RESCOMBINE distributed ones)",
+                            type(r).__name__)
+    kind = int(r._resultheader["kan"])
+    if kind != 2 or r.n_sector > 1:
+        raise BodyFileError(rst, "analysis type", "a modal analysis (ANTYPE,MODAL) without cyclic symmetry",
+                            f"{r.n_sector} sectors" if kind == 2 else ANALYSES.get(kind, f"type {kind}"))
+    dofs = list(r.result_dof(0))
+    if dofs != ["UX", "UY", "UZ"]:
+        raise BodyFileError(rst, "DOFs", "UX, UY, UZ at every node (solid elements; rotational DOFs are not read)",
+                            ", ".join(dofs))
+    mesh = r.mesh
+    order = np.argsort(np.asarray(mesh.nnum, np.int64), kind="stable")
+    nodes, points = np.asarray(mesh.nnum, np.int64)[order], np.asarray(mesh.nodes, float)[order, :3]
+    index = {int(k): i for i, k in enumerate(nodes)}
+    routines = np.asarray(mesh.etype, np.int64)
+    cells, rows = _cells(rst, mesh.elem, routines, index)
+    frequencies = np.asarray(r.time_values, float)
+    budget.take("NSL", 24.0 * len(nodes) * len(frequencies))
+    modes = np.stack([_at_nodes(rst, nodes, *r.nodal_solution(i), f"NSL of mode {i + 1}")
+                      for i in range(len(frequencies))], axis=-1)
+    stress = _corner_stress(rst, r, cells, rows, np.asarray(mesh.enum), nodes, len(frequencies), budget) \
+        if cells and r.available_results["ENS"] else None
+    names = [_name(int(t)) for t in routines]
+    empty = sp.csr_array((0, 0))
+    return AnsysRun(source=rst, full="", nodes=nodes, points=points, cells=cells,
+                    element_types={t: names.count(t) for t in sorted(set(names))},
+                    materials={int(k): {p: float(v) for p, v in d.items()} for k, d in r.materials.items()},
+                    cell_materials={int(m) for m in np.asarray(mesh.material_type)},
+                    units=str(r._resultheader["units"]),
+                    eigenvalues=np.sign(frequencies) * (2 * np.pi * frequencies) ** 2, modes=modes,
+                    corner_stress=stress, M=empty, K=empty, constrained=np.zeros(0, bool))
+
+
+def _name(routine: int) -> str:
+    return next((f"{family}{routine}" for family, numbers in FAMILIES.items() if routine in numbers),
+                f"element {routine}")
+
+
+def _cells(rst, elem, routines: np.ndarray, index: dict) -> tuple[dict[str, np.ndarray], dict[str, list[int]]]:
+    """Hexahedra by meshio type and the element rows of each, or ({}, {}) when any element is not one."""
+    cells: dict[str, list] = {}
+    rows: dict[str, list[int]] = {}
+    for k, (e, routine) in enumerate(zip(elem, routines)):
+        nodes = [int(n) for n in e[HEADER_WORDS:]]
+        kind = HEXES.get((int(routine), len(nodes)))
+        if kind is None or len(set(nodes)) != len(nodes):
+            return {}, {}
+        missing = [n for n in nodes if n not in index]
+        if missing:
+            raise BodyFileError(rst, "elements", "element nodes among the nodes", f"node {missing[0]}")
+        cells.setdefault(kind, []).append([index[n] for n in nodes])
+        rows.setdefault(kind, []).append(k)
+    return {t: np.array(c, np.int64) for t, c in cells.items()}, rows
+
+
+def _at_nodes(rst, nodes: np.ndarray, nnum: np.ndarray, values: np.ndarray, field: str) -> np.ndarray:
+    """A nodal result (n, 3), checked to hold finite values at every node of the mesh in its order."""
+    values = np.asarray(values, float)
+    if not np.array_equal(np.asarray(nnum), nodes) or values.shape != (len(nodes), 3) \
+            or not np.all(np.isfinite(values)):
+        raise BodyFileError(rst, field, "finite UX, UY, UZ at every node of the mesh", "missing or NaN values")
+    return values
+
+
+def _corner_stress(rst, r, cells: dict, rows: dict, enum: np.ndarray, nodes: np.ndarray, nm: int,
+                   budget: Budget) -> dict[str, np.ndarray]:
+    """Per cell type, the component stresses at each hexahedron's corners (ne, 8, 6, nm) as the file holds them."""
+    budget.take("ENS", 4.0 * CORNERS * 6 * nm * sum(len(c) for c in cells.values()))
+    out = {t: np.zeros((len(c), CORNERS, 6, nm), np.float32) for t, c in cells.items()}
+    for p in range(nm):
+        numbers, values, enodes = r.element_stress(p)
+        numbers = np.asarray(numbers)
+        for t, conn in cells.items():
+            wanted = enum[rows[t]]
+            at = np.minimum(np.searchsorted(numbers, wanted), max(len(numbers) - 1, 0))
+            ok = len(numbers) > 0 and np.array_equal(numbers[at], wanted) and \
+                all(np.shape(values[k]) == (CORNERS, 6) for k in at)
+            v = np.stack([values[k] for k in at]) if ok else None
+            if not ok or not np.all(np.isfinite(v)) or not np.array_equal(
+                    np.stack([np.asarray(enodes[k]) for k in at]), nodes[conn[:, :CORNERS]]):
+                raise BodyFileError(rst, f"ENS of mode {p + 1}", "finite stresses at the corners of every element "
+                                    "(MXPAND,,,,YES with OUTRES,ALL,ALL)", "missing or other elements' stresses")
+            out[t][:, :, :, p] = v
+    return out
+
+
+def _matrices(lib, full: str, nodes: np.ndarray, budget: Budget) -> tuple[sp.csr_array, sp.csr_array, np.ndarray]:
+    """Every stored term of M and K (upper triangles, symmetric), over the DOFs 3 i + c of ``nodes``."""
+    from ansys.mapdl.reader import _binary_reader
+    from ansys.mapdl.reader.common import two_ints_to_long
+
+    f = lib.read_binary(full)
+    if type(f) is not lib.full.FullFile:
+        raise BodyFileError(full, "file", "an MAPDL .full file (the mass and stiffness of the run)", type(f).__name__)
+    h = f._header
+    if h["numdof"] != 3:
+        raise BodyFileError(full, "DOFs", "3 per node (UX, UY, UZ: solid elements)", str(h["numdof"]))
+    terms = {name: two_ints_to_long(h[f"nterm{name}l"], h[f"nterm{name}h"]) for name in ("K", "M")}
+    budget.take(".full", 2 * 16.0 * sum(terms.values()), copies=1)  # the library's copy and ours, in the child
+    budget.take(".full", 12.0 * sum(terms.values()))
+    dof_ref = np.asarray(f.load_km(sort=False)[0], np.int64)
+    eq = _equations(full, dof_ref, nodes)
+    if len(eq) != 3 * len(nodes) or len(np.unique(eq)) != len(eq):
+        raise BodyFileError(full, "DOFs", f"UX, UY, UZ of each of the {len(nodes)} nodes of the .rst once",
+                            f"{len(eq)} equations")
+    held = np.zeros(3 * len(nodes), bool)
+    held[_equations(full, np.asarray(f.const, np.int64).reshape(-1, 2), nodes)] = True
+    every = np.ones(f.neqn, np.int32)  # read every term: the library drops those of held DOFs
+    M, K = (_symmetric(full, name, *_binary_reader.read_array(f.filename, h[ptr], terms[key], f.neqn, every), eq)
+            for name, ptr, key in (("mass matrix", "ptrMAS", "M"), ("stiffness matrix", "ptrSTF", "K")))
+    return M, K, held
+
+
+def _equations(full: str, dof_ref: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """The DOF 3 i + c of each (node, component) row of ``dof_ref``."""
+    i = np.searchsorted(nodes, dof_ref[:, 0])
+    i = np.minimum(i, len(nodes) - 1)
+    bad = (nodes[i] != dof_ref[:, 0]) | (dof_ref[:, 1] < 0) | (dof_ref[:, 1] > 2)
+    if bad.any():
+        node, c = dof_ref[np.argmax(bad)]
+        raise BodyFileError(full, "DOFs", "UX, UY, UZ of the nodes of the .rst", f"node {node} DOF {c}")
+    return 3 * i + dof_ref[:, 1]
+
+
+def _symmetric(full: str, field: str, rows, cols, data, eq: np.ndarray) -> sp.csr_array:
+    """The full symmetric matrix over the node DOFs from the stored upper triangle (in equation order)."""
+    rows, cols, data = np.asarray(rows, np.int64), np.asarray(cols, np.int64), np.asarray(data, float)
+    n3 = len(eq)
+    if np.any(rows > cols) or (len(rows) and (rows.min() < 0 or cols.max() >= n3)):
+        raise BodyFileError(full, field, "the upper triangle of a symmetric matrix over every node's UX, UY, UZ",
+                            "other terms")
+    if not np.all(np.isfinite(data)):
+        raise BodyFileError(full, field, "finite numbers", "NaN or infinity")
+    off = rows != cols
+    A = sp.coo_array((np.r_[data, data[off]], (np.r_[eq[rows], eq[cols[off]]], np.r_[eq[cols], eq[rows[off]]])),
+                     shape=(n3, n3))
+    return sp.csr_array(A.tocsr())

@@ -18,6 +18,7 @@ deflection ``K^+ f`` as a residual vector.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -285,30 +286,36 @@ def euler_factors(f_hz, rise_s: float) -> tuple[np.ndarray, float]:
     return _peaks(om, t, h / h.max())[0], float(h.max())
 
 
+@functools.lru_cache(maxsize=16)
 def _rise(rise_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t, w / W, w' / W) at RISE_STEPS + 1 points of a rise (sim.loads.spin_profile)."""
     from .sim.loads import spin_profile
     t = np.linspace(0.0, rise_s, RISE_STEPS + 1)
     w, a = np.array([spin_profile(1.0, rise_s)(x) for x in t]).T
+    for x in (t, w, a):
+        x.setflags(write=False)  # shared by the cache
     return t, w, a
 
 
 def _peaks(om: np.ndarray, t: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(largest |x|, largest |x - g|) of ``x'' + om^2 x = om^2 g(t)`` from rest, g linear between the points t
-    and held at g[-1] after them (a profile's curvature between RISE_STEPS points leaves about 1e-6 of the
-    response): ``y = x - g`` turns as a free oscillation within each segment and its rate jumps by the change
-    of slope at each point. |x| is taken at the points (within (om dt)^2 / 8 of its peak), |x - g| as the
-    amplitude of y, which bounds it (held, y keeps that amplitude)."""
+    """(largest |x|, largest |x - g|) of ``x'' + om^2 x = om^2 g(t)`` from rest, g linear between the equally
+    spaced points t and held at g[-1] after them (a profile's curvature between RISE_STEPS points leaves about
+    1e-6 of the response). ``z = y + i y' / om`` with ``y = x - g`` turns by ``exp(-i om dt)`` over each
+    segment and jumps by ``-i (change of slope) / om`` at each point, so after the jump at point m
+
+        z_m = exp(-i om dt m) sum_{k <= m} exp(i om dt k) J_k,    J_0 = -g_0 - i slope_0 / om
+
+    (one cumulative sum for every mode at once). |x| is taken at the points (within (om dt)^2 / 8 of its
+    peak), |x - g| as the amplitude |z|, which bounds it (held, y keeps that amplitude)."""
     slope = np.append(np.diff(g) / np.diff(t), 0.0)  # held after the last point
-    y, v = np.zeros_like(om) - g[0], -slope[0] / om  # y = x - g, v = y' / Omega
-    c, s_ = np.cos(om * (t[1] - t[0])), np.sin(om * (t[1] - t[0]))
-    excess, total = np.abs(y), np.abs(y + g[0])
-    for i in range(len(t) - 1):
-        y, v = y * c + v * s_, -y * s_ + v * c
-        excess, total = np.maximum(excess, np.hypot(y, v)), np.maximum(total, np.abs(g[i + 1] + y))
-        v = v - (slope[i + 1] - slope[i]) / om
-    held = np.hypot(y, v)  # after the last point: a free oscillation about g[-1]
-    return np.maximum(total, abs(g[-1]) + held), np.maximum(excess, held)
+    turn = np.exp(1j * np.outer(np.arange(len(t)) * (t[1] - t[0]), om))
+    J = np.empty(turn.shape, complex)
+    J[0] = -g[0] - 1j * slope[0] / om
+    J[1:] = -1j * np.diff(slope)[:, None] / om
+    z = np.cumsum(J * turn, axis=0) / turn
+    amplitude, held = np.abs(z), np.abs(z[-1])  # held: a free oscillation about g[-1] after the last point
+    total = np.abs(g[1:, None] + z[1:].real).max(axis=0)
+    return np.maximum(total, abs(g[-1]) + held), np.maximum(amplitude[:-1].max(axis=0), held)
 
 
 def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = None, f_max: float | None = None,

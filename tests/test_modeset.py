@@ -21,6 +21,7 @@ from ffrf_advisor.fe.modal import mass_normalised, rigid_modes, without_rigid
 from ffrf_advisor.fe_body import fe_body
 from ffrf_advisor.guidelines import Situation
 from ffrf_advisor.io import read_body
+from ffrf_advisor.predict import MARGIN
 from ffrf_advisor.modeset import (CASES, advise_modes, coefficients, euler_factors, inertia_loads,
                                   modal_loads_from_invariants, participation, reduced_body, response_factors,
                                   rising_load, scene_demands)
@@ -85,11 +86,12 @@ def test_residual_vectors_remove_the_static_error_and_the_step_ratio_is_the_redu
     a, loads, adv = advised
     assert adv.residual_cases and set(adv.kept) < set(range(beam.nf))
     r = reduced_body(beam, adv, loads)
-    assert r.nf == adv.size
+    assert r.nf == adv.size  # no residual vector the basis transform drops as dependent
     errors = basis_errors(r)
-    for j in adv.residual_cases:
-        if j < 3:
-            assert errors[j] <= 1e-5
+    for j in range(3):  # a case left out as dependent on the others (the slender beam's w1w1 and w2w2) is met
+        assert errors[j] <= (1e-5 if j in adv.residual_cases else adv.tolerance)
+    # its minor-axis error was first predicted within the margin of the tolerance: the other cases joined
+    assert any("within a factor" in n for n in adv.notes) and max(p[1] for p in adv.predicted) <= adv.tolerance / MARGIN
     assert np.sqrt(beam.eigenvalues.max() / r.eigenvalues.max()) == pytest.approx(adv.step_ratio, rel=1e-5)
     assert "kept modes" in r.provenance.notes[-1] and "residual vectors" in r.provenance.notes[-1]
     kept = beam.eigenvalues[list(adv.kept)]  # unchanged by the residual vectors (the eigensolver's 1e-7)

@@ -25,6 +25,7 @@ import numpy as np
 
 from .amplitudes import FLOOR, SMALL_DEFORMATION
 from .analysis import Analysis
+from .predict import MARGIN
 from .body import CASES, SYM_PAIRS, FlexibleBody
 from .errors import FFRFError
 from .fe.stress import modal_von_mises
@@ -344,7 +345,21 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
     beyond = [band * s.f_exc > top for s in scenes]
     notes += [f"{s.label} excites up to {s.f_exc:.4g} Hz; its band ({band:g} x) ends above the file's last mode "
               f"({top:.4g} Hz): no prediction, compute more modes" for s, out in zip(scenes, beyond) if out]
-    kept, predicted = _widened(kept, residual, modes, scenes, loads, _Setting.of(body, a.advice.terms), tol)
+    setting = _Setting.of(body, a.advice.terms)
+    kept, predicted = _widened(kept, residual, modes, scenes, loads, setting, tol)
+    close = [p[1] for p, out in zip(predicted, beyond) if not out and p[1] is not None and p[1] > tol / MARGIN]
+    if close and loads.U is not None and len(residual) < len(CASES):
+        missed = 1 - np.nansum(p[list(kept)], axis=0)  # each case's static energy share beyond the kept modes
+        others = sorted(set(range(len(CASES))) - set(residual), key=lambda j: -missed[j])
+        more = _independent(loads, body.eigenvalues, kept, residual, others)
+        if len(more) > len(residual):
+            notes.append(f"predicted error {max(close):.2g} within a factor {MARGIN:g} of the tolerance (the margin "
+                         f"of the predictions, as for the terms): residual vectors of "
+                         f"{', '.join(CASES[j] for j in sorted(set(more) - set(residual)))} too")
+            residual = more
+            kept, predicted = _widened(kept, residual, modes, scenes, loads, setting, tol)
+    if loads.U is not None:
+        residual = _independent(loads, body.eigenvalues, kept, (), residual)
     predicted = [(np.nan, np.nan) + p[2:] if out and p[0] is not None else p for p, out in zip(predicted, beyond)]
     notes += [f"{sc.label}: at {sc.speed / float(TIME[body.units.time]):.4g} rad/s the term set has no stable small "
               f"deflection along one of its spins (above a critical speed, a free spin that wanders, or a static "
@@ -407,6 +422,26 @@ def _choice(k: int, body, scenes, p, share, applied, tol: float, band: float) ->
         keep, reason = False, ("drop: out of band, " + (f"static energy share {pk:.2g} <= {tol:g}"
                                                         if np.isfinite(pk) else "share unknown (no compliance)"))
     return ModeChoice(k, f, float(pk), float(sk), keep, reason)
+
+
+DEPENDENT = 1e-6  # share of a residual vector's squared M-norm below which what it adds is no new direction
+
+
+def _independent(loads: InertiaLoads, lam: np.ndarray, kept, chosen, candidates) -> tuple[int, ...]:
+    """``chosen`` and those ``candidates`` (in their order) whose static deflection adds a direction to the kept
+    modes and the residual vectors before it: the M-norm^2 of its part beyond them over its own above
+    DEPENDENT (a nearly dependent vector only adds an ill-conditioned stiff pseudo-mode). The parts beyond the
+    kept modes have the M-products ``U^T M U - Q^T Q``, ``Q = P_S / lambda_S`` (theory 12: ``phi^T M u =
+    phi^T f / lambda``)."""
+    ix = list(kept)
+    Q = loads.P[ix] / lam[ix, None]
+    G = loads.UMU - Q.T @ Q
+    out = list(chosen)
+    for j in candidates:
+        new = G[j, j] - (G[j, out] @ np.linalg.solve(G[np.ix_(out, out)], G[out, j]) if out else 0.0)
+        if new > DEPENDENT * loads.UMU[j, j]:
+            out.append(j)
+    return tuple(sorted(out))
 
 
 def _weight(sigma: float, floor: float) -> float:

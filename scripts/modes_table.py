@@ -23,11 +23,9 @@ Rows run in parallel on --jobs local processes (ffrf_advisor.pool.mapper),
 the largest body files first; each prints its wall time. --only runs merge
 into the saved rows of docs/modes.json (same body and speed replaced).
 
-Run time (2 cores, 2026-11-24): the 38 rows without carbody took 747 s wall
-with --jobs 2 (about 18 min of CPU: the genstruct rows 3-5 min each, conrod
-1-1.5 min, the zoo rows 5-25 s); the two carbody rows (40 modes of a 66 MB
-body file) took 800 s each, run on their own with --only carbody (803 s
-wall). About 45 min with --jobs 1: nothing was cut.
+Run time (2 cores, 2026-11-25): all 40 rows in 1098 s wall with --jobs 2 (the
+two carbody rows, 40 modes of a 66 MB body file, 428 s each side by side; the
+genstruct rows 2.5-4 min, conrod about a minute, the zoo rows 10-30 s).
 """
 from __future__ import annotations
 

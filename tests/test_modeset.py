@@ -146,6 +146,27 @@ def test_response_factors_equal_an_integrated_oscillator():
     assert response_factors([3.0], 0.0) == (pytest.approx([2.0]), pytest.approx([1.0]))
 
 
+def test_the_euler_cases_load_no_free_mode(beam):
+    """The Euler load -M (e_j x x) of a unit angular acceleration, summed over the nodes, projects on the
+    beam's free modes to round-off of the centrifugal cases' projections (theory 12), as the invariants
+    (mean-axis residual) say: nodal sums against euler_loads."""
+    from ffrf_advisor.modeset import euler_loads
+    fe = beam.fe
+    X, n = fe.mesh.points, fe.mesh.n_nodes
+    M = full_mass(fe.Ms)
+    nodal = np.column_stack([fe.Phi.reshape(3 * n, beam.nf).T @ -(M @ np.cross(e, X).ravel()) for e in np.eye(3)])
+    scale = np.abs(inertia_loads(beam).P).max()
+    assert np.abs(nodal).max() <= 1e-12 * scale and np.abs(euler_loads(beam)).max() <= 1e-12 * scale
+    assert np.allclose(nodal, euler_loads(beam), rtol=0, atol=1e-13 * scale)
+    # the sign and the sum where the shapes are not free modes (random fields): the same nodal sums
+    rng = np.random.default_rng(3)
+    shapes = replace(fe, Phi=rng.standard_normal((n, 3, 2)), K=None, stress_nodal=None, rotary=None)
+    fake = replace(beam, fe=shapes, integrals=shapes.integrals(), eigenvalues=np.ones(2), sigma_max=None,
+                   static_centrifugal=None, geometric=None)
+    nodal = np.column_stack([shapes.Phi.reshape(3 * n, 2).T @ -(M @ np.cross(e, X).ravel()) for e in np.eye(3)])
+    assert np.allclose(euler_loads(fake), nodal, rtol=1e-12, atol=1e-12 * np.abs(nodal).max())
+
+
 def test_euler_factors_equal_an_integrated_oscillator():
     """A mode's largest response to the load shape of a rising spin on its own deflection, h = a (w / W)^2
     normalised (a = w' / W), against scipy's DOP853 at rtol 1e-11 (1e-5: h linear between 2000 points); h ends

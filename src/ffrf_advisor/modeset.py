@@ -46,6 +46,13 @@ def coefficients(w: np.ndarray) -> np.ndarray:
     return np.array([w[k] * w[l] * (1.0 if k == l else 2.0) for k, l in SYM_PAIRS])
 
 
+def euler_loads(body: FlexibleBody) -> np.ndarray:
+    """(nf, 3): ``phi_k^T f`` of the Euler cases ``f = -M (e_j x x)`` per unit ``dw_j/dt`` (and ``-J e_j`` on
+    nodal rotations, theory 3b): ``-(sum m x~ phi_k)_j``, minus the mean-axis residual, zero for free-surface
+    modes in their frame (theory 12: an angular acceleration loads no mode at q = 0)."""
+    return -body.integrals.mean_axis_residual().T
+
+
 def modal_loads_from_invariants(body: FlexibleBody) -> np.ndarray:
     """(nf, 6): ``phi_k^T f_j`` per unit spin^2 from the invariants alone: the cf1 force ``[w I] 0.5 W1^T w``
     (theory 5) is quadratic in w, its six coefficients follow by polarisation."""
@@ -222,6 +229,7 @@ class ModeAdvice:
     step_ratio_modes: float
     source: str
     notes: list[str] = field(default_factory=list)
+    euler_share: float = 0.0  # largest modal Euler load over the largest centrifugal one (theory 12: 0 at q = 0)
 
     @property
     def size(self) -> int:
@@ -371,7 +379,8 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
     return ModeAdvice(body.nf, kept, residual, modes, cases,
                       scenes, [p[:2] for p in predicted], tol, band, terms,
                       rhs_cost(terms, body.nf) / rhs_cost(terms, size), _step_ratio(body, kept, residual, loads),
-                      _step_ratio(body, kept, (), loads), loads.source, notes)
+                      _step_ratio(body, kept, (), loads), loads.source, notes,
+                      float(np.abs(euler_loads(body)).max() / max(np.abs(loads.P).max(), 1e-300)))
 
 
 def _widened(kept, residual, modes: list, scenes, loads: InertiaLoads, setting: "_Setting", tol: float):

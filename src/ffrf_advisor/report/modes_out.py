@@ -22,7 +22,7 @@ def modes_json(adv: ModeAdvice, body: str, source: str, written: str | None = No
         "kept": [k + 1 for k in adv.kept], "residual_cases": [CASES[j] for j in adv.residual_cases],
         "size": adv.size, "modes_total": adv.nf, "summary": adv.summary(),
         "rhs_ratio": adv.rhs_ratio, "step_ratio": json_number(adv.step_ratio),
-        "step_ratio_quasi_static": adv.step_ratio_modes,
+        "step_ratio_quasi_static": adv.step_ratio_modes, "euler_share": adv.euler_share,
         "modes": [{"mode": m.mode + 1, "f_hz": m.f_hz, "energy_share": json_number(m.participation),
                    "stress_share": json_number(m.stress_share), "keep": m.keep, "reason": m.reason}
                   for m in adv.modes],
@@ -45,8 +45,9 @@ def mode_set_json(adv: ModeAdvice) -> dict:
 def modes_report(console: Console, adv: ModeAdvice, name: str) -> None:
     """The advice on top, then the scenes, the modes, the load cases (theory 12)."""
     console.print(f"[bold]{shown(name)}[/bold]: {adv.summary()}", highlight=False)
-    console.print(f"loads: {adv.source}; the Euler cases {', '.join(EULER)} put no load on free modes at q = 0 "
-                  "(carried by the rigid motion)", highlight=False)
+    console.print(f"loads: {adv.source}; the Euler cases {', '.join(EULER)} load the modes by at most "
+                  f"{adv.euler_share:.1g} of the largest centrifugal case (none at q = 0: carried by the rigid "
+                  "motion)", highlight=False)
     for note in adv.notes:
         console.print(f"note: {note}", highlight=False)
     fitted_table(console, f"scenes: what they excite and the predicted response error (band {adv.band:g} x f_exc)",

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import hashlib
+import importlib
 import os
 from dataclasses import dataclass, replace
 from typing import Callable
@@ -15,19 +16,36 @@ from .atomic import note_input
 
 @dataclass(frozen=True)
 class Format:
-    """A body file format: its name, suffixes, reader and (optional) writer."""
+    """A body file format: its name, suffixes, and the module of this package that reads (and writes) it,
+    imported on first use (a command imports only the readers it needs)."""
 
     name: str
     suffixes: tuple[str, ...]
-    read: Callable[..., FlexibleBody]
-    write: Callable[..., None] | None = None
+    module: str
+    reader: str = "read"
+    writer: str | None = None  # the module's writer function; None: read only
+
+    @property
+    def read(self) -> Callable[..., FlexibleBody]:
+        return getattr(importlib.import_module(f"{__name__}.{self.module}"), self.reader)
+
+    @property
+    def write(self) -> Callable[..., None] | None:
+        return None if self.writer is None else getattr(importlib.import_module(f"{__name__}.{self.module}"),
+                                                         self.writer)
 
 
-_FORMATS: dict[str, Format] = {}
-
-
-def register(fmt: Format) -> None:
-    _FORMATS[fmt.name] = fmt
+_FORMATS = {f.name: f for f in (
+    Format("ansys", (".rst",), "ansys"),
+    Format("calculix", (".frd",), "calculix"),
+    Format("ffinv-json", (".ffinv.json",), "ffinv", "read_json", "write_json"),
+    Format("ffinv-h5", (".ffinv.h5",), "ffinv", "read_h5", "write_h5"),
+    Format("ffrf-h5", (".ffrf.h5",), "ffrf_h5", "read", "write"),
+    Format("mbdyn", (".fem",), "mbdyn", "read", "write"),
+    Format("meshio", (".vtk", ".xdmf", ".xmf", ".med", ".msh"), "meshio_modes"),
+    Format("vtu", (".vtu",), "meshio_modes", "read", "write"),  # meshio's VTU, which it also writes
+    Format("nastran", (".op2",), "nastran"),
+)}
 
 
 def formats() -> list[Format]:
@@ -176,6 +194,6 @@ def write_body(body: FlexibleBody, path: str | os.PathLike, fmt: str | None = No
     f.write(body, path, overwrite=overwrite, **options)
 
 
-from . import ansys, calculix, ffinv, ffrf_h5, limits, mbdyn, meshio_modes, nastran  # noqa: E402  (register themselves)
+from . import limits  # noqa: E402
 
-__all__ = ["Format", "register", "formats", "format_of", "check_reader_options", "read_body", "write_body", "ansys", "calculix", "ffinv", "ffrf_h5", "limits", "mbdyn", "meshio_modes", "nastran"]
+__all__ = ["Format", "formats", "format_of", "check_reader_options", "read_body", "write_body", "limits"]

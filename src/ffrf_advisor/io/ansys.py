@@ -22,7 +22,7 @@ from ..fe.mesh import Mesh
 from ..fe.modal import mode_signs, rigid_modes
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from ..transform import free_surface_ritz
-from . import Format, ansys_files, guard, register
+from . import ansys_files, guard
 from .ansys_fe import free_stiffness, material_of, nodal_von_mises, scalar_mass
 from .ansys_files import AnsysRun
 from .ansys_units import UnitChoice, choose
@@ -142,6 +142,3 @@ def _ritz(run: AnsysRun, K, count: int, residual: float):
             f"free body ({dropped} rigid or dependent dropped), as good as the run's modes span its modes"
             + ("; their stresses combined from the modes' corner stress tensors" if run.corner_stress else ""))
     return lam, (S * signs).reshape(n, 3, -1), nodal_von_mises(run, C * signs), note
-
-
-register(Format("ansys", (".rst",), read))

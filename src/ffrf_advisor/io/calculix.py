@@ -26,7 +26,6 @@ from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_resp
 from ..fe.material import Material
 from ..fe.mesh import Mesh
 from ..fe.stress import von_mises
-from . import Format, register
 from .limits import Budget, check_file_size
 
 # frd element type -> (meshio type, frd position of each VTK/deck node)
@@ -444,6 +443,3 @@ def write_deck(mesh: Mesh, material: Material, n_modes: int, path, binary: bool 
                 "*ELEMENT OUTPUT" if binary else "*EL FILE", "S"]
     out.append("*END STEP")
     Path(path).write_text("\n".join(out) + "\n")
-
-
-register(Format("calculix", (".frd",), read))

@@ -19,7 +19,6 @@ from ..adams import SIGNS, from_adams, to_adams, w3_from_I9
 from ..body import MASS_KINDS, FlexibleBody, Provenance
 from ..errors import BodyFileError
 from ..units import LENGTH, MASS, TIME, Units, UnitsError
-from . import Format, register
 from .atomic import atomic_path
 from . import guard
 from .limits import Budget, check_file_size, check_hdf5_references
@@ -305,7 +304,3 @@ def read_json(path, load_fe: bool = False) -> FlexibleBody:
 
 def read_h5(path, load_fe: bool = False) -> FlexibleBody:
     return body_from_document(path, guard.run(path, "the HDF5 library", _load_h5, path))
-
-
-register(Format("ffinv-json", (".ffinv.json",), read_json, write_json))
-register(Format("ffinv-h5", (".ffinv.h5",), read_h5, write_h5))

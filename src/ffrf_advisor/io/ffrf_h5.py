@@ -21,7 +21,6 @@ from ..fe.material import Material
 from ..fe.mesh import Mesh
 from ..invariants import SPAN, NodalPass, RotaryIntegrals, ShapeIntegrals, block_rows, nodal_pass
 from ..units import Units, UnitsError
-from . import Format, register
 from .atomic import atomic_path
 from . import guard
 from .limits import TREE_BYTES_PER_BYTE, Budget, check_hdf5_references
@@ -533,6 +532,3 @@ def _rotary(r: _Reader, n: int, nf: int) -> NodalRotary | None:
               or np.linalg.eigvalsh(J).min() < -1e-12 * np.abs(J).max()):
         r.fail("rotary/J", "symmetric positive semi-definite 3x3 inertia tensors")
     return NodalRotary(nodes, J, r.array("rotary/Phi", (k, 3, nf)))
-
-
-register(Format("ffrf-h5", (".ffrf.h5",), read, write))

@@ -35,7 +35,6 @@ from ..errors import FFRFError
 from ..fe.mesh import Mesh
 from ..invariants import RotaryIntegrals, ShapeIntegrals, largest_squares
 from ..units import TMM
-from . import Format, register
 from .atomic import atomic_path
 from .mbdyn_records import INVARIANT_GROUPS, Records, field, file_rows, parse
 
@@ -260,6 +259,3 @@ def _framed(body: FlexibleBody, X: np.ndarray, Phi: np.ndarray) -> FlexibleBody:
     _, c, R = body.in_principal_frame()
     moved = body.moved_to_principal_frame()
     return moved if moved.fe is not None else replace(moved, nodal=_summary((X - c) @ R, Phi))
-
-
-register(Format("mbdyn", (".fem",), read, write))

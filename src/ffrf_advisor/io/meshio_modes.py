@@ -33,11 +33,10 @@ from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_resp
 from ..fe.elements import ELEMENT_TYPES
 from ..fe.material import Material
 from ..fe.mesh import Mesh
-from . import Format, guard, register
+from . import guard
 from .atomic import atomic_path
 from .limits import check_file_size, check_reference
 
-SUFFIXES = (".vtu", ".vtk", ".xdmf", ".xmf", ".med", ".msh")
 LOWER_DIMENSIONAL = re.compile(r"^(vertex|line\d*|triangle\d*|quad\d*|polygon)$")
 _MODE = re.compile(r"^mode_(\d+)$")
 
@@ -208,9 +207,6 @@ def _stress(path, m, n_nodes: int, numbers: list[int]) -> np.ndarray | None:
     return S
 
 
-WRITES = (".vtu",)  # written; the other suffixes are read only
-
-
 def write(body: FlexibleBody, path, overwrite: bool = False) -> None:
     """The body as a VTU/VTK mesh (module docstring), in t-mm-N-s, written atomically."""
     import meshio
@@ -262,7 +258,3 @@ def _uniform_density(body: FlexibleBody, path) -> float:
         raise FFRFError(f"{path}: a mesh file holds one density; {body.name}'s mass matrix is not the consistent "
                         "mass of a uniform density (added or lumped masses): write .ffrf.h5")
     return rho
-
-
-register(Format("meshio", tuple(s for s in SUFFIXES if s not in WRITES), read))
-register(Format("vtu", WRITES, read, write))

@@ -23,7 +23,7 @@ from ..fe.assembly import full_mass
 from ..fe.modal import mode_signs
 from ..fe.mesh import Mesh
 from ..transform import free_surface_ritz
-from . import Format, guard, nastran_dmig, register
+from . import guard, nastran_dmig
 from .nastran_modes import NastranModes
 from .nastran_mass import (NodalMass, assembled_mass, generalized_mass_error, modes_with_extra_nodes,
                            rotary_share)
@@ -255,6 +255,3 @@ def free_surface_run(path, run: NastranModes, mass: NodalMass, mats: nastran_dmi
             f"free body ({dropped} rigid or dependent dropped), as good as the run's modes span its modes; "
             "no modal stresses (their combination needs stress tensors)")
     return out, note
-
-
-register(Format("nastran", (".op2",), read))

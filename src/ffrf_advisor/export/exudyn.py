@@ -15,10 +15,11 @@ from ..body import FlexibleBody
 from ..errors import FFRFError
 from ..fe.assembly import full_mass
 from ..io.atomic import atomic_path, check_target
-from ..sim.model import N_ROT
+from ..sim.equations import split
 
 DATA, SCENE, SCRIPT = "body.npz", "scene.json", "run_exudyn.py"
 FILES = (DATA, SCENE, SCRIPT)
+SAMPLES = 500  # default number of output samples
 STEP_PHASE = 0.1  # default step: h Omega_max = 0.1, RK4's phase error per step (h Omega)^5 / 120 ~ 1e-7
 NOTE = ("EXUDYN evaluates every inertia term of the floating frame (it has no term switches) and no geometric "
         "stiffening: the body runs with the full set (terms I-IV), whatever the advice")
@@ -36,9 +37,6 @@ class Scene:
     output_step: float
 
 
-SAMPLES = 500  # default number of output samples
-
-
 def scene_of(y0: np.ndarray, nf: int, t_end: float, step: float, output_step: float | None) -> Scene:
     """The scene of the initial state ``y0`` (sim.model.initial_state's layout): the step shortened so that it
     divides ``t_end`` (EXUDYN takes a number of steps), the output step a whole number of steps (its sensors
@@ -46,7 +44,8 @@ def scene_of(y0: np.ndarray, nf: int, t_end: float, step: float, output_step: fl
     n = math.ceil(t_end / step * (1 - 1e-12))
     h = t_end / n
     every = max(1, round((output_step or t_end / SAMPLES) / h))
-    return Scene(tuple(y0[4:7]), tuple(y0[N_ROT:N_ROT + nf]), tuple(y0[N_ROT + nf:]), t_end, h, every * h)
+    _, w0, q0, qd0 = split(y0, nf)
+    return Scene(tuple(w0), tuple(q0), tuple(qd0), t_end, h, every * h)
 
 
 def default_step(body: FlexibleBody) -> float:

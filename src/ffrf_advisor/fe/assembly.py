@@ -6,6 +6,7 @@ of shape (n, 3, nf) reshapes to (3n, nf) without copying.
 """
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Iterator
 
 import numpy as np
@@ -95,11 +96,13 @@ def _element_stiffness(etype: ElementType, coords: np.ndarray, material: Materia
     return K.reshape(ne, 3 * nn, 3 * nn)
 
 
-def stiffness_matrix(mesh: Mesh, material: Material) -> sp.csr_array:
-    """Linear-elastic stiffness K (3n x 3n), node-interleaved DOFs."""
+def stiffness_matrix(mesh: Mesh, material: Material, gauss_order: int | None = None) -> sp.csr_array:
+    """Linear-elastic stiffness K (3n x 3n), node-interleaved DOFs; ``gauss_order`` points per direction
+    instead of each element type's own rule (another code's choice, e.g. MAPDL's KEYOPT)."""
     n3 = 3 * mesh.n_nodes
     K = sp.csr_array((n3, n3))
     for etype, conn in _blocks(mesh):
+        etype = etype if gauss_order is None else replace(etype, gauss_order=gauss_order)
         for part in _chunks(conn, (3 * etype.n_nodes) ** 2):
             c = conn[part]
             Ke = _element_stiffness(etype, mesh.points[c], material)

@@ -77,6 +77,21 @@ def rigid_modes(X: np.ndarray) -> np.ndarray:
     return R.reshape(3 * n, 6)
 
 
+def rigid_residual(K: sp.sparray, R: np.ndarray) -> float:
+    """max_k |K r_k| / (|K|_F |r_k|) over the rigid modes R (columns): ~0 for the stiffness of a free body."""
+    import scipy.sparse.linalg as spla  # ~0.1 s of import the analysis of a cached body does without
+    return float((np.linalg.norm(K @ R, axis=0) / np.linalg.norm(R, axis=0)).max() / spla.norm(K))
+
+
+RIGID_SHARE = 1e-10  # |lambda| / largest |lambda| below which a solver's mode is rigid (a frequency ratio 1e-5) ...
+RIGID_HZ = 1e-2      # ... or a frequency below this (a run whose modes are all ~0)
+
+
+def rigid_eigenvalues(lam: np.ndarray) -> np.ndarray:
+    """Which of a modal run's eigenvalues (1/s^2) are its rigid modes (RIGID_SHARE, RIGID_HZ)."""
+    return (np.abs(lam) < RIGID_SHARE * np.abs(lam).max()) | (np.sqrt(np.abs(lam)) / (2 * np.pi) < RIGID_HZ)
+
+
 def without_rigid(S: np.ndarray, rigid: np.ndarray, M: sp.sparray) -> np.ndarray:
     """S minus its M-orthogonal projection onto the span of ``rigid``."""
     MR = M @ rigid

@@ -27,12 +27,14 @@ class Format:
 
     @property
     def read(self) -> Callable[..., FlexibleBody]:
-        return getattr(importlib.import_module(f"{__name__}.{self.module}"), self.reader)
+        return self._function(self.reader)
 
     @property
     def write(self) -> Callable[..., None] | None:
-        return None if self.writer is None else getattr(importlib.import_module(f"{__name__}.{self.module}"),
-                                                         self.writer)
+        return None if self.writer is None else self._function(self.writer)
+
+    def _function(self, name: str) -> Callable:
+        return getattr(importlib.import_module(f"{__name__}.{self.module}"), name)
 
 
 _FORMATS = {f.name: f for f in (
@@ -71,8 +73,9 @@ UNFORESEEN = (OSError, ValueError, KeyError, IndexError, TypeError, RuntimeError
               ArithmeticError, AttributeError, LookupError, RecursionError)  # not MemoryError: a bug to find
 
 
-MESH = ("meshio", "vtu")
-READER_OPTIONS = {"eigenvalues": MESH, "density": MESH, "young": MESH, "poisson": MESH, "units": ("ansys",)}
+MESH, ANSYS = ("meshio", "vtu"), ("ansys",)
+READER_OPTIONS = {"eigenvalues": MESH, "density": MESH, "young": MESH, "poisson": MESH, "units": ANSYS}
+WHERE = {MESH: "meshio meshes", ANSYS: "ANSYS results (.rst)"}
 
 
 def check_reader_options(path, options: dict, fmt: str | None = None) -> None:
@@ -81,8 +84,7 @@ def check_reader_options(path, options: dict, fmt: str | None = None) -> None:
     name = format_of(path, fmt).name
     wrong = [o for o in options if name not in READER_OPTIONS[o]]
     if wrong:
-        where = "ANSYS results (.rst)" if READER_OPTIONS[wrong[0]] == ("ansys",) else "meshio meshes"
-        raise FFRFError(f"{path}: --{'/--'.join(wrong)} apply to {where} only")
+        raise FFRFError(f"{path}: --{'/--'.join(wrong)} apply to {WHERE[READER_OPTIONS[wrong[0]]]} only")
 
 
 def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> FlexibleBody:

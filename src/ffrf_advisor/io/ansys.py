@@ -19,7 +19,7 @@ import numpy as np
 from ..body import FlexibleBody, Provenance
 from ..errors import BodyFileError
 from ..fe.mesh import Mesh
-from ..fe.modal import mode_signs, rigid_modes
+from ..fe.modal import N_RIGID, mode_signs, rigid_eigenvalues, rigid_modes
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from ..transform import free_surface_ritz
 from . import ansys_files, guard
@@ -28,8 +28,6 @@ from .ansys_files import AnsysRun
 from .ansys_units import UnitChoice, choose
 from .limits import check_file_size
 
-RIGID_TOL, RIGID_HZ = 1e-10, 1e-2  # a rigid mode: |lambda| below this share of the largest, or f below this (Hz)
-N_RIGID = 6
 EIGEN_TOL = 1e-4  # |K phi - lambda M phi| / |K phi| of a free body's mode: Block Lanczos leaves ~1e-6 (the example:
 # 9e-7), a mode of another problem (constrained, another mesh) is off by order 1
 FULL = (".full", ".FULL")
@@ -53,11 +51,6 @@ def parse(path) -> AnsysRun:
     run = guard.run(path, "ansys-mapdl-reader", ansys_files.load_result, str(path))
     M, K, held = guard.run(full, "ansys-mapdl-reader", ansys_files.load_matrices, full, run.nodes)
     return replace(run, full=full, M=M, K=K, constrained=held)
-
-
-def rigid(lam: np.ndarray) -> np.ndarray:
-    """The rigid modes among eigenvalues ``lam`` (as the Nastran reader separates them)."""
-    return (np.abs(lam) < RIGID_TOL * np.abs(lam).max()) | (np.sqrt(np.abs(lam)) / (2 * np.pi) < RIGID_HZ)
 
 
 def body_of(path, run: AnsysRun, units: str | None = None) -> FlexibleBody:
@@ -88,7 +81,7 @@ def body_of(path, run: AnsysRun, units: str | None = None) -> FlexibleBody:
 def _modes(run: AnsysRun, Ms, K, why: str, choice: UnitChoice):
     """Eigenvalues, mass-normalised modes, nodal stresses and a note: the run's flexible modes when they are the
     free body's (or, without K, when the run has the six rigid modes), else its modes brought to free-free form."""
-    flex = ~rigid(run.eigenvalues)
+    flex = ~rigid_eigenvalues(run.eigenvalues)  # as for Nastran
     count = int((~flex).sum())
     if not flex.any():
         raise BodyFileError(run.source, "eigenvalues", "at least one flexible mode", "only rigid modes")

@@ -3,17 +3,17 @@ body's stiffness, and nodal von Mises stress from the element corner stresses.""
 from __future__ import annotations
 
 import os
-from dataclasses import replace
 
 import numpy as np
 import scipy.sparse as sp
 
 from ..errors import BodyFileError
-from ..fe.assembly import _chunks, _element_stiffness, full_mass
-from ..fe.elements import EDGES, element_type
+from ..fe.assembly import full_mass, stiffness_matrix
+from ..fe.elements import EDGES
 from ..fe.material import Material
 from ..fe.mesh import Mesh
-from ..fe.modal import rigid_modes
+from ..fe.modal import rigid_modes, rigid_residual
+from ..fe.stress import von_mises
 from .ansys_files import AnsysRun
 
 KRON_TOL = 1e-10  # |M - kron(Ms, I3)| / max |Ms|: solid elements give this form to round-off (as CalculiX's)
@@ -22,6 +22,7 @@ FREE_K_TOL = 1e-9  # |K r| / (|K|_F |r|) of a free body's K: double round-off is
 MATCH_TOL = 1e-9  # max |K_elements - K_full| / max |K| on the unconstrained DOFs: the example's SOLID186 at 2x2x2
 # matches to 3e-13; 3x3x3 is off by 7e-2
 GAUSS_ORDERS = (2, 3)  # SOLID186: 2x2x2 (KEYOPT(2)=0, the default) or 3x3x3 (KEYOPT(2)=1)
+VOIGT = [[0, 3, 5], [3, 1, 4], [5, 4, 2]]  # the tensor's entries among MAPDL's SX, SY, SZ, SXY, SYZ, SXZ
 
 
 def scalar_mass(run: AnsysRun) -> sp.csr_array:
@@ -48,17 +49,11 @@ def material_of(run: AnsysRun, length: float, mass: float) -> tuple[Material | N
         f"material {used[0]}: EX {E:g}, nu {nu:g}, DENS {rho:g} (file units)"
 
 
-def rigid_residual(K: sp.csr_array, X: np.ndarray) -> float:
-    """max_k |K r_k| / (|K|_F |r_k|) over the six rigid modes: ~0 for the stiffness of a free body."""
-    R = rigid_modes(X - X.mean(axis=0))
-    return float((np.linalg.norm(K @ R, axis=0) / np.linalg.norm(R, axis=0)).max() / np.sqrt((K.data**2).sum()))
-
-
 def free_stiffness(run: AnsysRun, mesh: Mesh, material: Material | None) -> tuple[sp.csr_array | None, str]:
     """The free body's K (theory 4): the .full's when it is free, else the elements' own stiffness where it
     reproduces the .full's on every DOF its run did not hold; None with the reason otherwise."""
     full = os.path.basename(run.full)
-    residual = rigid_residual(run.K, run.points)
+    residual = rigid_residual(run.K, rigid_modes(run.points - run.points.mean(axis=0)))
     if residual <= FREE_K_TOL:
         return run.K, f"K of {full}: the free body's (|K r| / |K| |r| = {residual:.2g})"
     why = (f"K of {full} is not the free body's (|K r| / |K| |r| = {residual:.2g}, "
@@ -67,7 +62,7 @@ def free_stiffness(run: AnsysRun, mesh: Mesh, material: Material | None) -> tupl
         return None, why + " and the elements cannot be assembled (hexahedra and one isotropic material)"
     free = ~run.constrained
     for order in GAUSS_ORDERS:
-        K = element_stiffness(mesh, material, order)
+        K = stiffness_matrix(mesh, material, order)
         D = sp.coo_array(K - run.K)
         inside = free[D.row] & free[D.col]
         off = float(np.abs(D.data[inside]).max(initial=0.0)) / float(abs(K).max())
@@ -75,21 +70,6 @@ def free_stiffness(run: AnsysRun, mesh: Mesh, material: Material | None) -> tupl
             return K, (why + f": the free K assembled from the elements ({order}x{order}x{order} Gauss points) "
                        f"reproduces it on the other DOFs within {off:.2g}")
     return None, why + f" and the elements' stiffness differs from it by more than {MATCH_TOL:g}"
-
-
-def element_stiffness(mesh: Mesh, material: Material, order: int) -> sp.csr_array:
-    """K of the hexahedra of ``mesh`` with an ``order``-point Gauss rule per direction (node-interleaved)."""
-    n3 = 3 * mesh.n_nodes
-    K = sp.csr_array((n3, n3))
-    for name, conn in mesh.cells.items():
-        etype = replace(element_type(name), gauss_order=order)
-        for part in _chunks(conn, (3 * etype.n_nodes) ** 2):
-            c = conn[part]
-            Ke = _element_stiffness(etype, mesh.points[c], material)
-            dofs = (3 * c[:, :, None] + np.arange(3)).reshape(len(c), -1)
-            rows, cols = np.broadcast_to(dofs[:, :, None], Ke.shape), np.broadcast_to(dofs[:, None, :], Ke.shape)
-            K = K + sp.coo_array((Ke.ravel(), (rows.ravel(), cols.ravel())), shape=(n3, n3)).tocsr()
-    return sp.csr_array(K)
 
 
 def nodal_von_mises(run: AnsysRun, combine: np.ndarray) -> np.ndarray | None:
@@ -104,12 +84,6 @@ def nodal_von_mises(run: AnsysRun, combine: np.ndarray) -> np.ndarray | None:
         s = run.corner_stress[cell].astype(float) @ combine  # (ne, 8, 6, k)
         if cell == "hexahedron20":
             s = np.concatenate([s, 0.5 * (s[:, [a for a, _ in EDGES]] + s[:, [b for _, b in EDGES]])], axis=1)
-        np.add.at(total, conn.ravel(), von_mises_components(s).reshape(-1, k))
+        np.add.at(total, conn.ravel(), von_mises(np.moveaxis(s[..., VOIGT, :], -1, -3)).reshape(-1, k))
         np.add.at(count, conn.ravel(), 1.0)
     return total / np.maximum(count, 1.0)[:, None]
-
-
-def von_mises_components(s: np.ndarray) -> np.ndarray:
-    """Von Mises stress from SX, SY, SZ, SXY, SYZ, SXZ along axis -2 of ``s`` (..., 6, k)."""
-    sx, sy, sz, sxy, syz, sxz = (s[..., i, :] for i in range(6))
-    return np.sqrt(0.5 * ((sx - sy) ** 2 + (sy - sz) ** 2 + (sz - sx) ** 2) + 3 * (sxy**2 + syz**2 + sxz**2))

@@ -20,7 +20,7 @@ import scipy.sparse as sp
 from ..body import FlexibleBody, ModalFE, NodalRotary, Provenance
 from ..errors import BodyFileError, FFRFError
 from ..fe.assembly import full_mass
-from ..fe.modal import mode_signs
+from ..fe.modal import N_RIGID, RIGID_HZ, mode_signs, rigid_eigenvalues
 from ..fe.mesh import Mesh
 from ..transform import free_surface_ritz
 from . import guard, nastran_dmig
@@ -31,9 +31,6 @@ from .nastran_stress import nodal_stress
 from .limits import check_file_size
 from .pynastran import quietly
 
-RIGID_TOL = 1e-10  # |lambda| / largest |lambda| below which a mode is rigid (a frequency ratio of 1e-5) ...
-RIGID_HZ = 1e-2    # ... or a frequency below this (a run whose modes are all ~0)
-N_RIGID = 6
 GENMASS_TOL = 1e-4  # assembled against Nastran's generalised masses: float32 modes reach ~1e-7
 FREE_K_TOL = 1e-6  # |K r| / |K| |r| of a free body's K: round-off of the punch's 16-digit fields, summed
 PUNCH = (".pch", ".PCH")  # where PARAM,EXTOUT,DMIGPCH puts MAAX and KAAX
@@ -146,12 +143,8 @@ def _frames(path, m, gids: np.ndarray) -> np.ndarray:
     return F
 
 
-def rigid(lam: np.ndarray) -> np.ndarray:
-    return (np.abs(lam) < RIGID_TOL * np.abs(lam).max()) | (np.sqrt(np.abs(lam)) / (2 * np.pi) < RIGID_HZ)
-
-
 def _require_free_free(path, lam: np.ndarray, mats: nastran_dmig.Matrices | None) -> None:
-    count = int(rigid(lam).sum())
+    count = int(rigid_eigenvalues(lam).sum())
     if count == N_RIGID or (mats is not None and mats.M is not None and mats.K is not None):
         return
     why = ("the run is constrained (SPCs or a grounded model): rerun SOL 103 without constraints"
@@ -171,10 +164,10 @@ def body_of(path, run: NastranModes, mass: NodalMass, mats: nastran_dmig.Matrice
     scaled by the generalised masses, the rotary nodes (theory 3b) kept apart, in the CoM principal frame."""
     notes = [f"Nastran {os.path.basename(str(path))}: {len(run.eigenvalues)} modes; units assumed t-mm-N-s",
              *mass.notes]
-    if int(rigid(run.eigenvalues).sum()) != N_RIGID:
+    if int(rigid_eigenvalues(run.eigenvalues).sum()) != N_RIGID:
         run, note = free_surface_run(path, run, mass, mats)
         notes.append(note)
-    flex = ~rigid(run.eigenvalues)
+    flex = ~rigid_eigenvalues(run.eigenvalues)
     points, T, R = modes_with_extra_nodes(run, mass)
     scale = 1 / np.sqrt(run.generalized_mass[flex])
     notes += _mass_notes(run, mass, flex)
@@ -250,8 +243,8 @@ def free_surface_run(path, run: NastranModes, mass: NodalMass, mats: nastran_dmi
     out = NastranModes(run.grids, run.points, np.r_[np.zeros(N_RIGID), lam], np.ones(N_RIGID + k),
                        np.concatenate([rigid6[:, :3], S[:, :3]], axis=2),
                        np.concatenate([rigid6[:, 3:], S[:, 3:]], axis=2), None, run.element_types)
-    note = (f"not free-free ({int(rigid(run.eigenvalues).sum())} of {nm} modes rigid): the modes brought to the "
-            f"form of theory 4 with {nastran_dmig.MASS} and {nastran_dmig.STIFFNESS}: {k} Ritz vectors of the "
+    note = (f"not free-free ({int(rigid_eigenvalues(run.eigenvalues).sum())} of {nm} modes rigid): the modes "
+            f"brought to the form of theory 4 with {nastran_dmig.MASS} and {nastran_dmig.STIFFNESS}: {k} Ritz vectors of the "
             f"free body ({dropped} rigid or dependent dropped), as good as the run's modes span its modes; "
             "no modal stresses (their combination needs stress tensors)")
     return out, note

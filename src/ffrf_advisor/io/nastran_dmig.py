@@ -14,6 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import BodyFileError
+from ..fe.modal import rigid_residual
 from .limits import check_file_size
 from .nastran_mass import NodalMass
 from .pynastran import quietly
@@ -196,7 +197,5 @@ def rigid_mass_loss(M: sp.csr_array, mass: NodalMass, X: np.ndarray) -> float:
 
 
 def free_body_residual(K: sp.csr_array, X: np.ndarray) -> float:
-    """max_k |K r_k| / (|K|_F |r_k|) over the rigid modes: ~0 for the stiffness of a free body."""
-    R = rigid_modes_6(X - X.mean(axis=0))
-    import scipy.sparse.linalg as spla  # scipy.linalg: ~0.1 s of import the analysis of a cached body does without
-    return float((np.linalg.norm(K @ R, axis=0) / np.linalg.norm(R, axis=0)).max() / spla.norm(K))
+    """fe.modal.rigid_residual of K with the six-DOF rigid modes of the grids X."""
+    return rigid_residual(K, rigid_modes_6(X - X.mean(axis=0)))

@@ -25,8 +25,6 @@ from .model import Model
 SCIPY_NAMES = {"dop853": "DOP853", "scipy-dop853": "DOP853", "rk45": "RK45", "radau": "Radau", "bdf": "BDF",
                "lsoda": "LSODA"}
 REASONS = {1: "state not finite or overflowing", 2: "quaternion norm lost"}
-NEWTON_TOL = 1e-12   # relative size of the last Newton correction of the implicit midpoint rule
-NEWTON_MAX = 20
 
 
 def rk4_limit(eigenvalues) -> float:
@@ -148,7 +146,7 @@ MIDPOINT_FAILURES = {1: REASONS[1], 2: REASONS[2], 3: "Newton iteration did not 
 
 
 def _midpoint_compiled(model, y0, h, nsteps, every, program) -> Run:
-    """The implicit midpoint rule in compiled code (sim.midpoint; ``_midpoint_step`` is its reference)."""
+    """The implicit midpoint rule in compiled code (sim.midpoint; ``_MidpointStepper`` is its reference)."""
     from . import midpoint
     out = np.empty((nsteps // every + 1, len(y0)))
     start = time.perf_counter()
@@ -163,7 +161,7 @@ def _midpoint_compiled(model, y0, h, nsteps, every, program) -> Run:
 def _fixed_python(model, y0, h, nsteps, every, method, loads, progress) -> Run:
     """RK4 with loads (Python loop over the compiled right-hand side) or the implicit midpoint rule."""
     f = Rhs(model, loads)
-    stepper = _midpoint_step if method == "midpoint" else _rk4_step
+    stepper = _MidpointStepper() if method == "midpoint" else _rk4_step
     rows, y, start = [y0], y0, time.perf_counter()
     for n in range(nsteps):
         t = n * h
@@ -198,27 +196,57 @@ def _rk4_step(f, t, y, h):
     return y, _state_failure(y, norm)
 
 
-def _midpoint_step(f, t, y, h):
-    """Implicit midpoint ``Y = y + h f(t + h/2, (y + Y)/2)`` by Newton with a finite-difference Jacobian."""
-    n = len(y)
-    f0 = f(t + h / 2, y)
-    J = np.empty((n, n))
-    for j in range(n):
-        d = 1e-7 * max(1.0, abs(y[j]))
-        yj = y.copy()
-        yj[j] += d
-        J[:, j] = (f(t + h / 2, yj) - f0) / d
-    lu = sla.lu_factor(np.eye(n) - h / 2 * J)
-    Y = y + h * f0
-    for _ in range(NEWTON_MAX):
-        R = Y - y - h * f(t + h / 2, (y + Y) / 2)
-        dY = sla.lu_solve(lu, R)
-        Y = Y - dY
-        if not np.all(np.isfinite(Y)):
-            return Y, REASONS[1]
-        if np.linalg.norm(dY) <= NEWTON_TOL * (1 + np.linalg.norm(Y)):
-            return Y, _state_failure(Y, np.linalg.norm(Y[:4]))
-    return Y, "Newton iteration did not converge"
+class _MidpointStepper:
+    """Implicit midpoint steps ``Y = y + h f(t + h/2, (y + Y)/2)`` by the simplified Newton iteration of
+    sim.midpoint, its forward-difference Jacobian kept from step to step by the same rule (its Python
+    reference: the same iterates, the same evaluations)."""
+
+    def __init__(self):
+        self.lu, self.fresh = None, True
+
+    def __call__(self, f, t, y, h):
+        from .midpoint import THETA_REFRESH
+        f0 = f(t + h / 2, y)
+        if self.fresh:
+            self.lu = self._factor(f, t, y, h, f0)
+        Y, reason, theta = self._newton(f, t, y, h, f0)
+        if not self.fresh and reason not in ("", REASONS[2]):
+            self.lu = self._factor(f, t, y, h, f0)
+            Y, reason, theta = self._newton(f, t, y, h, f0)
+        self.fresh = theta > THETA_REFRESH
+        return Y, reason
+
+    @staticmethod
+    def _factor(f, t, y, h, f0):
+        """LU of ``1 - h/2 J``, J the forward-difference Jacobian of f at (t + h/2, y)."""
+        from .midpoint import FD_STEP
+        n = len(y)
+        J = np.empty((n, n))
+        for j in range(n):
+            d = FD_STEP * max(1.0, abs(y[j]))
+            yj = y.copy()
+            yj[j] += d
+            J[:, j] = (f(t + h / 2, yj) - f0) / d
+        return sla.lu_factor(np.eye(n) - h / 2 * J)
+
+    def _newton(self, f, t, y, h, f0):
+        """(Y, failure reason, largest ratio of successive corrections) from the Euler predictor."""
+        from .midpoint import NEWTON_MAX, NEWTON_TOL
+        Y, theta, last = y + h * f0, 0.0, np.inf
+        for it in range(NEWTON_MAX):
+            dY = sla.lu_solve(self.lu, Y - y - h * f(t + h / 2, (y + Y) / 2))
+            Y = Y - dY
+            if not np.all(np.isfinite(Y)):
+                return Y, REASONS[1], theta
+            dn = np.linalg.norm(dY)
+            if it > 0:
+                theta = max(theta, dn / last)
+                if dn >= last:
+                    return Y, MIDPOINT_FAILURES[3], theta
+            last = dn
+            if dn <= NEWTON_TOL * (1 + np.linalg.norm(Y)):
+                return Y, _state_failure(Y, np.linalg.norm(Y[:4])), theta
+        return Y, MIDPOINT_FAILURES[3], theta
 
 
 def _output_times(t_end: float, output_step: float) -> np.ndarray:

@@ -1,12 +1,17 @@
 """The implicit midpoint rule compiled around the compiled right-hand side (theory section 10).
 
-``Y = y + h f(t + h/2, (y + Y)/2)`` solved by Newton's method with the
-matrix ``1 - h/2 J``, J the forward-difference Jacobian of f at the step's
-start (one evaluation per state entry), factorised once per step by LU
-with partial pivoting; the iteration stops when the last correction is
-below ``NEWTON_TOL (1 + |Y|)``. The same algorithm as the Python reference
-``integrate._midpoint_step`` (the tests compare the two), without a Python
-call per evaluation.
+``Y = y + h f(t + h/2, (y + Y)/2)`` solved by a simplified Newton method
+with the matrix ``1 - h/2 J``, J the forward-difference Jacobian of f (one
+evaluation per state entry) factorised by LU with partial pivoting, kept
+from step to step as implicit codes keep theirs (Hairer and Wanner, Solving
+ODEs II, IV.8): J is taken again at the start of the next step when a step's
+iteration contracted by less than ``THETA_REFRESH`` per iteration, and at
+once, the step restarted, when an iteration on a kept J diverges, overflows
+or runs out of iterations. The iteration stops when the last correction is
+below ``NEWTON_TOL (1 + |Y|)``; the fixed point, and so the step, is the
+same whichever J drove the iteration (to that tolerance). The same
+algorithm as the Python reference ``integrate._MidpointStepper`` (the tests
+compare the two), without a Python call per evaluation.
 """
 from __future__ import annotations
 
@@ -16,8 +21,9 @@ from .kernels import HUGE, QUATERNION_TOL, jit, rhs_loaded
 
 NEWTON_TOL = 1e-12
 NEWTON_MAX = 20
+THETA_REFRESH = 0.1  # a step whose corrections shrank by less than this per iteration: J taken again next step
 FD_STEP = 1e-7  # relative forward-difference step of the Jacobian
-OK, NOT_FINITE, QUATERNION, NO_NEWTON = 0, 1, 2, 3
+OK, NOT_FINITE, QUATERNION, NO_NEWTON, DIVERGING = 0, 1, 2, 3, 4
 
 
 @jit
@@ -56,11 +62,9 @@ def _lu_solve(LU, piv, b):
 
 
 @jit
-def _step(t, y, h, Y, model, prog, fext, scratch, M, piv, f0, fj, ym, R):
-    """One midpoint step from y into Y: (failure code, Newton iterations); evaluations n + 1 + iterations."""
+def _jacobian_lu(tm, y, h, f0, model, prog, fext, scratch, M, piv, fj, ym):
+    """M = P L U of ``1 - h/2 J``, J the forward-difference Jacobian of f at (tm, y) (f0 = f(tm, y))."""
     n = y.shape[0]
-    tm = t + 0.5 * h
-    rhs_loaded(tm, y, f0, model, prog, fext, scratch)
     for j in range(n):
         d = FD_STEP * max(1.0, abs(y[j]))
         for i in range(n):
@@ -71,8 +75,16 @@ def _step(t, y, h, Y, model, prog, fext, scratch, M, piv, f0, fj, ym, R):
             M[i, j] = -0.5 * h * (fj[i] - f0[i]) / d
         M[j, j] += 1.0
     _lu(M, piv)
+
+
+@jit
+def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, M, piv, fj, ym, R):
+    """Y from the Euler predictor by the simplified Newton iteration on M: (code, iterations, largest ratio of
+    successive corrections)."""
+    n = y.shape[0]
     for i in range(n):
         Y[i] = y[i] + h * f0[i]
+    theta, last = 0.0, np.inf
     for it in range(NEWTON_MAX):
         for i in range(n):
             ym[i] = 0.5 * (y[i] + Y[i])
@@ -84,16 +96,43 @@ def _step(t, y, h, Y, model, prog, fext, scratch, M, piv, f0, fj, ym, R):
         for i in range(n):
             Y[i] -= R[i]
             if not np.isfinite(Y[i]):
-                return NOT_FINITE, it + 1
+                return NOT_FINITE, it + 1, theta
             dn += R[i] * R[i]
             yn += Y[i] * Y[i]
-        if np.sqrt(dn) <= NEWTON_TOL * (1.0 + np.sqrt(yn)):
+        dn = np.sqrt(dn)
+        if it > 0:
+            theta = max(theta, dn / last)
+            if dn >= last:
+                return DIVERGING, it + 1, theta
+        last = dn
+        if dn <= NEWTON_TOL * (1.0 + np.sqrt(yn)):
             for i in range(n):
                 if abs(Y[i]) > HUGE:
-                    return NOT_FINITE, it + 1
+                    return NOT_FINITE, it + 1, theta
             norm = np.sqrt(Y[0] ** 2 + Y[1] ** 2 + Y[2] ** 2 + Y[3] ** 2)
-            return (QUATERNION if abs(norm - 1.0) > QUATERNION_TOL else OK), it + 1
-    return NO_NEWTON, NEWTON_MAX
+            return (QUATERNION if abs(norm - 1.0) > QUATERNION_TOL else OK), it + 1, theta
+    return NO_NEWTON, NEWTON_MAX, theta
+
+
+@jit
+def _step(t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, f0, fj, ym, R):
+    """One midpoint step from y into Y, J taken at its start when ``fresh`` (else M is kept from an earlier
+    step, and taken here only if the iteration on it fails): (failure code, evaluations, whether the next step
+    takes J again)."""
+    n = y.shape[0]
+    tm = t + 0.5 * h
+    rhs_loaded(tm, y, f0, model, prog, fext, scratch)
+    nfev = 1
+    if fresh:
+        _jacobian_lu(tm, y, h, f0, model, prog, fext, scratch, M, piv, fj, ym)
+        nfev += n
+    code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, M, piv, fj, ym, R)
+    nfev += iterations
+    if not fresh and code != OK and code != QUATERNION:
+        _jacobian_lu(tm, y, h, f0, model, prog, fext, scratch, M, piv, fj, ym)
+        code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, M, piv, fj, ym, R)
+        nfev += n + iterations
+    return (NO_NEWTON if code == DIVERGING else code), nfev, theta > THETA_REFRESH
 
 
 @jit
@@ -106,10 +145,11 @@ def midpoint_loop(y0, h, nsteps, every, out, model, prog, fext):
     f0, fj, ym, R = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     y, Y = y0.copy(), np.empty(n)
     out[0] = y
-    nfev = 0
+    nfev, fresh = 0, True
     for step in range(nsteps):
-        code, iterations = _step(step * h, y, h, Y, model, prog, fext, scratch, M, piv, f0, fj, ym, R)
-        nfev += n + 1 + iterations
+        code, evaluations, fresh = _step(step * h, y, h, Y, fresh, model, prog, fext, scratch, M, piv, f0, fj, ym,
+                                         R)
+        nfev += evaluations
         if code != OK:
             return step + 1, nfev, code
         for i in range(n):

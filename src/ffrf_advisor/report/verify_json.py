@@ -48,7 +48,8 @@ def _scene(st: Study, s: Scene, per_s: float) -> dict:
     return {"name": s.name, "label": s.label, "axis": s.axis + 1, "duration": s.duration,
             "speed_rad_s": s.speed / per_s, "damping": s.damping, "text": s.text,
             "reference": {"integrator": "dop853", "rtol": REF_RTOL, "self_error": ref.self_error,
-                          "self_check": check, "wall_s": ref.wall_s},
+                          "self_check": check, "wall_s": ref.wall_s,
+                          "rhs_evaluations": ref.run.nfev, "self_check_evaluations": ref.self_check_nfev},
             "verdict": _verdict(verdict)}
 
 

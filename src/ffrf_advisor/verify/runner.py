@@ -74,6 +74,7 @@ class Reference:
     run: Run
     self_error: dict      # errors of the run at REF_RTOL against the one at REF_RTOL / 100
     wall_s: float
+    self_check_nfev: int  # right-hand sides of the run at REF_RTOL / 100
 
 
 @dataclass(frozen=True)
@@ -187,7 +188,7 @@ def reference(a: Analysis, scene: Scene) -> Reference:
     model = build_model(a.body, stiffened(a, FULL), scene.damping)
     run = run_scene(model, scene, "dop853", rtol=REF_RTOL)
     tight = run_scene(model, scene, "dop853", rtol=REF_RTOL / 100)
-    return Reference(run, scene_errors(a, run, tight), run.wall_s)
+    return Reference(run, scene_errors(a, run, tight), run.wall_s, tight.nfev)
 
 
 def scene_errors(a: Analysis, run: Run, ref: Run) -> dict:

@@ -6,7 +6,8 @@ Prints
      (target: at most 1.5x);
   2. `verify` of the shipped beam with the default scenes as a process, with the compiled integrators and
      with the former path (scipy's DOP853 calling the right-hand side from Python, the Python midpoint
-     rule: `sim.loads.Loads.compiled` patched to refuse), and their ratio (goal: at least 10x; --skip-old:
+     rule with a Jacobian taken at every step: `sim.loads.Loads.compiled` patched to refuse,
+     `sim.midpoint.THETA_REFRESH` below every ratio), and their ratio (goal: at least 10x; --skip-old:
      the compiled path only);
   3. `verify` of the shipped beam with the default scenes, and with --quick, as a process, over the sum of its
      evaluations' compiled cost (target: at most 2x). The floor: each run whose evaluations `verify --json`
@@ -48,6 +49,7 @@ VERIFY_REPEATS = 3  # verify's --repeat (its default): every counted run is take
 VERIFY = ["verify", str(BEAM), "--speed", "300rad/s", "--repeat", str(VERIFY_REPEATS)]
 NEW_PATH = [sys.executable, "-m", "ffrf_advisor"]
 OLD_PATH = ("import sys; from ffrf_advisor.sim.loads import Loads; Loads.compiled = lambda self: None; "
+            "from ffrf_advisor.sim import midpoint; midpoint.THETA_REFRESH = -1.0; "
             "from ffrf_advisor.cli import app; sys.argv = ['ffrf-advisor', *sys.argv[1:]]; app()")
 
 

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-import scipy.linalg as sla
 
 from ..names import ADAPTIVE, FIXED, INTEGRATORS  # noqa: F401 (defined in names: the CLI's help lists them)
 from .loads import Loads
@@ -202,23 +201,23 @@ class _MidpointStepper:
     reference: the same iterates, the same evaluations)."""
 
     def __init__(self):
-        self.lu, self.fresh = None, True
+        self.inverse, self.fresh = None, True
 
     def __call__(self, f, t, y, h):
         from .midpoint import THETA_REFRESH
         f0 = f(t + h / 2, y)
         if self.fresh:
-            self.lu = self._factor(f, t, y, h, f0)
+            self.inverse = self._inverse(f, t, y, h, f0)
         Y, reason, theta = self._newton(f, t, y, h, f0)
         if not self.fresh and reason not in ("", REASONS[2]):
-            self.lu = self._factor(f, t, y, h, f0)
+            self.inverse = self._inverse(f, t, y, h, f0)
             Y, reason, theta = self._newton(f, t, y, h, f0)
         self.fresh = theta > THETA_REFRESH
         return Y, reason
 
     @staticmethod
-    def _factor(f, t, y, h, f0):
-        """LU of ``1 - h/2 J``, J the forward-difference Jacobian of f at (t + h/2, y)."""
+    def _inverse(f, t, y, h, f0):
+        """``(1 - h/2 J)^-1``, J the forward-difference Jacobian of f at (t + h/2, y)."""
         from .midpoint import FD_STEP
         n = len(y)
         J = np.empty((n, n))
@@ -227,14 +226,14 @@ class _MidpointStepper:
             yj = y.copy()
             yj[j] += d
             J[:, j] = (f(t + h / 2, yj) - f0) / d
-        return sla.lu_factor(np.eye(n) - h / 2 * J)
+        return np.linalg.inv(np.eye(n) - h / 2 * J)
 
     def _newton(self, f, t, y, h, f0):
         """(Y, failure reason, largest ratio of successive corrections) from the Euler predictor."""
         from .midpoint import NEWTON_MAX, NEWTON_TOL
         Y, theta, last = y + h * f0, 0.0, np.inf
         for it in range(NEWTON_MAX):
-            dY = sla.lu_solve(self.lu, Y - y - h * f(t + h / 2, (y + Y) / 2))
+            dY = self.inverse @ (Y - y - h * f(t + h / 2, (y + Y) / 2))
             Y = Y - dY
             if not np.all(np.isfinite(Y)):
                 return Y, REASONS[1], theta

@@ -2,7 +2,9 @@
 
 ``Y = y + h f(t + h/2, (y + Y)/2)`` solved by a simplified Newton method
 with the matrix ``1 - h/2 J``, J the forward-difference Jacobian of f (one
-evaluation per state entry) factorised by LU with partial pivoting, kept
+evaluation per state entry), inverted once by LU with partial pivoting (an
+iteration then costs one matrix-vector product: a kept matrix serves
+many), kept
 from step to step as implicit codes keep theirs (Hairer and Wanner, Solving
 ODEs II, IV.8): J is taken again at the start of the next step when a step's
 iteration contracted by less than ``THETA_REFRESH`` per iteration, and at
@@ -47,23 +49,28 @@ def _lu(A, piv):
 
 @jit
 def _lu_solve(LU, piv, b):
-    """x = A^-1 b in place, A = P L U from ``_lu``."""
+    """x = A^-1 b in place, A = P L U from ``_lu`` (each row's sum in a local accumulator, so the compiler
+    vectorises it)."""
     n = b.shape[0]
     for k in range(n):
         p = piv[k]
         b[k], b[p] = b[p], b[k]
     for i in range(n):
+        s = b[i]
         for j in range(i):
-            b[i] -= LU[i, j] * b[j]
+            s -= LU[i, j] * b[j]
+        b[i] = s
     for i in range(n - 1, -1, -1):
+        s = b[i]
         for j in range(i + 1, n):
-            b[i] -= LU[i, j] * b[j]
-        b[i] /= LU[i, i]
+            s -= LU[i, j] * b[j]
+        b[i] = s / LU[i, i]
 
 
 @jit
-def _jacobian_lu(tm, y, h, f0, model, prog, fext, scratch, M, piv, fj, ym):
-    """M = P L U of ``1 - h/2 J``, J the forward-difference Jacobian of f at (tm, y) (f0 = f(tm, y))."""
+def _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, fj, ym):
+    """W = (1 - h/2 J)^-T, J the forward-difference Jacobian of f at (tm, y) (f0 = f(tm, y)), by LU with partial
+    pivoting in M; stored transposed, so applying it is a sum of contiguous columns (``_apply``)."""
     n = y.shape[0]
     for j in range(n):
         d = FD_STEP * max(1.0, abs(y[j]))
@@ -75,12 +82,32 @@ def _jacobian_lu(tm, y, h, f0, model, prog, fext, scratch, M, piv, fj, ym):
             M[i, j] = -0.5 * h * (fj[i] - f0[i]) / d
         M[j, j] += 1.0
     _lu(M, piv)
+    for j in range(n):
+        for i in range(n):
+            fj[i] = 0.0
+        fj[j] = 1.0
+        _lu_solve(M, piv, fj)
+        for i in range(n):
+            W[j, i] = fj[i]
 
 
 @jit
-def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, M, piv, fj, ym, R):
-    """Y from the Euler predictor by the simplified Newton iteration on M: (code, iterations, largest ratio of
-    successive corrections)."""
+def _apply(W, r, x):
+    """x = W^T r (W from ``_newton_inverse``: x = (1 - h/2 J)^-1 r)."""
+    n = r.shape[0]
+    for i in range(n):
+        x[i] = 0.0
+    for j in range(n):
+        rj = r[j]
+        Wj = W[j]
+        for i in range(n):
+            x[i] += Wj[i] * rj
+
+
+@jit
+def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R):
+    """Y from the Euler predictor by the simplified Newton iteration with the inverse W of ``_newton_inverse``:
+    (code, iterations, largest ratio of successive corrections)."""
     n = y.shape[0]
     for i in range(n):
         Y[i] = y[i] + h * f0[i]
@@ -90,8 +117,8 @@ def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, M, piv, fj, ym, R):
             ym[i] = 0.5 * (y[i] + Y[i])
         rhs_loaded(tm, ym, fj, model, prog, fext, scratch)
         for i in range(n):
-            R[i] = Y[i] - y[i] - h * fj[i]
-        _lu_solve(M, piv, R)
+            ym[i] = Y[i] - y[i] - h * fj[i]
+        _apply(W, ym, R)
         dn, yn = 0.0, 0.0
         for i in range(n):
             Y[i] -= R[i]
@@ -115,7 +142,7 @@ def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, M, piv, fj, ym, R):
 
 
 @jit
-def _step(t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, f0, fj, ym, R):
+def _step(t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, f0, fj, ym, R):
     """One midpoint step from y into Y, J taken at its start when ``fresh`` (else M is kept from an earlier
     step, and taken here only if the iteration on it fails): (failure code, evaluations, whether the next step
     takes J again)."""
@@ -124,13 +151,13 @@ def _step(t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, f0, fj, ym, R):
     rhs_loaded(tm, y, f0, model, prog, fext, scratch)
     nfev = 1
     if fresh:
-        _jacobian_lu(tm, y, h, f0, model, prog, fext, scratch, M, piv, fj, ym)
+        _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, fj, ym)
         nfev += n
-    code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, M, piv, fj, ym, R)
+    code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R)
     nfev += iterations
     if not fresh and code != OK and code != QUATERNION:
-        _jacobian_lu(tm, y, h, f0, model, prog, fext, scratch, M, piv, fj, ym)
-        code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, M, piv, fj, ym, R)
+        _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, fj, ym)
+        code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R)
         nfev += n + iterations
     return (NO_NEWTON if code == DIVERGING else code), nfev, theta > THETA_REFRESH
 
@@ -141,14 +168,14 @@ def midpoint_loop(y0, h, nsteps, every, out, model, prog, fext):
     Returns (steps done, evaluations, failure code); the failed step's state is the last row written."""
     n = y0.shape[0]
     scratch = (np.empty(3), np.empty(3), np.empty(3))
-    M, piv = np.empty((n, n)), np.empty(n, dtype=np.int64)
+    M, piv, W = np.empty((n, n)), np.empty(n, dtype=np.int64), np.empty((n, n))
     f0, fj, ym, R = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     y, Y = y0.copy(), np.empty(n)
     out[0] = y
     nfev, fresh = 0, True
     for step in range(nsteps):
-        code, evaluations, fresh = _step(step * h, y, h, Y, fresh, model, prog, fext, scratch, M, piv, f0, fj, ym,
-                                         R)
+        code, evaluations, fresh = _step(step * h, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, f0, fj,
+                                         ym, R)
         nfev += evaluations
         if code != OK:
             return step + 1, nfev, code

@@ -353,12 +353,12 @@ def _study(folder: Optional[Path], *args, **kwargs):
     """verify.study.run_study(*args, **kwargs) with a progress bar, and its figures written into ``folder``
     when given (report.verify_figures): (study, paths of the figures)."""
     from .report.console import step_bar
-    from .report.verify_figures import write_figures
     from .verify.study import drift_curves, run_study
     with step_bar(notes()) as progress:
         st = run_study(*args, progress=progress, **kwargs)
         if folder is None:
             return st, ()
+        from .report.verify_figures import write_figures
         drift = None if st.stability is None else drift_curves(st.analysis, st.verification.scenes[0])
         return st, write_figures(st, drift, folder, progress)
 

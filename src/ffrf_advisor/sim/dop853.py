@@ -17,10 +17,27 @@ torque pulse, a prescribed spin ramp), evaluated in the loop by
 """
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
+
 import numpy as np
-from scipy.integrate._ivp import dop853_coefficients as tableau
+import scipy
 
 from .kernels import HUGE, jit, rhs_loaded as _f
+
+
+def _scipy_tableau():
+    """scipy's ``scipy/integrate/_ivp/dop853_coefficients.py``, loaded from its file: importing it by name
+    would first run ``scipy.integrate``'s ``__init__`` (about 0.3 s of quadrature, BVP and ODE modules that
+    nothing here uses). The file only imports numpy."""
+    path = Path(scipy.__file__).parent / "integrate" / "_ivp" / "dop853_coefficients.py"
+    spec = importlib.util.spec_from_file_location("_ffrf_dop853_tableau", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+tableau = _scipy_tableau()
 
 STAGES = tableau.N_STAGES                      # 12 stages of the step ...
 A = np.ascontiguousarray(tableau.A)            # ... 16 with the dense output's extra three

@@ -118,19 +118,22 @@ def compiled_cost(count: Counter, repeat: int) -> float:
 
 def evaluations(data: dict) -> tuple[Counter, Counter, list[str]]:
     """Right-hand-side evaluations per term set that ``verify --json`` (``data``) reports: (those of the timed
-    runs, one run each; those of the runs taken once, the references), and the parts counted."""
+    runs, one run each; those of the runs taken once, the references), and the parts counted. Rows of sets with
+    the same terms share one run (verify.runner.distinct) and count once."""
     rows, timed, once = data["results"], Counter(), Counter()
-    for r in rows:
-        timed[tuple(r["terms"])] += r["rhs_evaluations"]
+    runs = {(r["scene"], tuple(r["terms"])): r["rhs_evaluations"] for r in rows}  # sets of equal terms: one run
+    for (_, terms), n in runs.items():
+        timed[terms] += n
     full = next(tuple(r["terms"]) for r in rows if r["set"] == "IV (full)")  # the references' terms
     for sc in data["scenes"]:
         once[full] += sc["reference"]["rhs_evaluations"] + sc["reference"]["self_check_evaluations"]
-    parts = [f"scenes' rows ({len(rows)} runs)", f"references ({2 * len(data['scenes'])} runs, taken once)"]
+    parts = [f"scenes' rows ({len(runs)} runs)", f"references ({2 * len(data['scenes'])} runs, taken once)"]
     if data["work_precision"] is not None:
         terms = {r["set"]: tuple(r["terms"]) for r in rows}
-        points = data["work_precision"]["points"]
-        for p in points:
-            timed[terms[p["set"]]] += p["nfev"]
+        points = {(terms[p["set"]], p["integrator"], p["setting"]): p["nfev"]
+                  for p in data["work_precision"]["points"]}
+        for (t, _, _), n in points.items():
+            timed[t] += n
         parts.append(f"work-precision points ({len(points)} runs)")
     return timed, once, parts
 

@@ -25,7 +25,7 @@ from ffrf_advisor.significance import softening_speeds
 from ffrf_advisor.terms import FULL, LEVEL_SETS
 from ffrf_advisor.verify import stability
 from ffrf_advisor.verify.measures import QUANTITIES, RESPONSE, worst
-from ffrf_advisor.verify.runner import SELF_CHECK, for_scenes, judge, verify
+from ffrf_advisor.verify.runner import SELF_CHECK, distinct, for_scenes, judge, term_sets, verify
 from ffrf_advisor.verify.scenes import SCENES, SceneOptions, make_scene, make_scenes, scene_axes
 from ffrf_advisor.verify.study import drift_curves
 
@@ -50,6 +50,13 @@ def test_every_scene_lasts_a_few_periods_of_mode_1_and_of_the_rotation(beam):
         assert scene.speed == pytest.approx(300.0)
 
 
+def test_sets_with_the_same_terms_are_run_once_under_the_first_ones_name(beam):
+    sets = term_sets(beam)
+    runs = distinct(sets)
+    assert [ts.terms for ts in runs] == list(dict.fromkeys(ts.terms for ts in sets))
+    assert all(ts in sets for ts in runs) and runs[0].label == "advised"
+
+
 @pytest.mark.slow  # seconds: kept out of the default run's 2-minute budget, run by CI
 def test_level_I_fails_on_the_spinning_beam_and_the_advice_holds(beam):
     """Spin about the long axis at 300 rad/s (45 % of s_crit): the W2 terms change the modes by O(1)."""
@@ -59,6 +66,8 @@ def test_level_I_fails_on_the_spinning_beam_and_the_advice_holds(beam):
     assert advised.meets(0.01) and full.meets(0.01)
     assert full.errors["q"] < 1e-5  # the full set against the reference: integration error only
     assert v.verdict.verdict in ("agree", "conservative") and v.verdict.cheapest not in ("I", "II")
+    assert advised.set.terms == full.set.terms and advised.run is full.run  # one run serves both rows
+    assert advised.errors == full.errors and advised.speedup == 1.0
 
 
 @pytest.mark.slow

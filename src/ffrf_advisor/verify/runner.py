@@ -158,6 +158,15 @@ def term_sets(a: Analysis) -> tuple[TermSet, ...]:
     return tuple(sets)
 
 
+def distinct(sets: tuple[TermSet, ...]) -> tuple[TermSet, ...]:
+    """The first of each group of sets with the same terms (the advised set is often a canonical level): they
+    make the same evaluations, so each group is run once and its run serves every set in it."""
+    first: dict = {}
+    for ts in sets:
+        first.setdefault(ts.terms, ts)
+    return tuple(first.values())
+
+
 def grid_step(scene: Scene, step: float | None) -> tuple[float, float | None]:
     """(output step, integration step): the output step is a whole number of integration steps."""
     out = scene.duration / SAMPLES
@@ -220,14 +229,16 @@ def verify(a: Analysis, scenes, tolerance: float = 0.01, integrator: str = "dop8
            rtol: float = 1e-8, repeats: int = 3, criterion: str = "response", jobs: int = 1,
            progress=None) -> Verification:
     """Every term set through every scene against the reference, and the verdict on the advice by ``criterion``;
-    the references, then the sets' runs, on ``jobs`` local processes (each run's wall time is the minimum over
+    the references, then the runs of the distinct sets (``distinct``), on ``jobs`` local processes (each run's wall time is the minimum over
     its ``repeats``, taken serially in its worker); ``progress(label, done, total)`` is told of each finished
     run."""
     scenes, sets = tuple(scenes), term_sets(a)
-    refs, rows = _runs(_Work(a, scenes, sets, integrator, step, rtol, repeats), jobs, progress or _silent)
+    refs, rows = _runs(_Work(a, scenes, distinct(sets), integrator, step, rtol, repeats), jobs,
+                       progress or _silent)
+    run_of = {(r.scene, r.set.terms): r for r in rows}
     results = []
     for sc in scenes:
-        scene_rows = [r for r in rows if r.scene == sc.label]
+        scene_rows = [replace(run_of[sc.label, ts.terms], set=ts) for ts in sets]
         full = next(r for r in scene_rows if r.set.label == "IV (full)")
         results += [_with_speedup(r, full) for r in scene_rows]
     results = tuple(results)

@@ -18,7 +18,7 @@ from ..sim.model import build_model
 from ..terms import FULL, LEVEL_SETS
 from ..units import TIME
 from . import stability
-from .runner import Verification, for_scenes, run_scene, stiffened, term_sets, verify
+from .runner import Verification, distinct, for_scenes, run_scene, stiffened, term_sets, verify
 from .scenes import Scene, SceneOptions, default_speed, deformation_axis, make_scenes, stable_axes
 from .workprecision import Point, work_precision
 
@@ -102,7 +102,7 @@ def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str
     run and study."""
     scenes = make_scenes(scene_names, a, scene_options)
     a = for_scenes(a, scenes)
-    runs = len(scenes) * (1 + len(term_sets(a)))
+    runs = len(scenes) * (1 + len(distinct(term_sets(a))))
     total = runs + (0 if quick else 3)
     told = (lambda label, done, _: progress(label, done, total)) if progress else (lambda *_: None)
     ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion, jobs, told)

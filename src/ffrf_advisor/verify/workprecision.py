@@ -10,7 +10,7 @@ error.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -39,21 +39,27 @@ class Point:
 
 def work_precision(a: Analysis, scene: Scene, ref: Reference, sets: tuple[TermSet, ...],
                    repeats: int = 1) -> list[Point]:
-    """The work-precision points of ``sets`` in ``scene``."""
+    """The work-precision points of ``sets`` in ``scene`` (sets with the same terms share their runs)."""
     limit = rk4_limit(a.body.eigenvalues)
     runs = ([("dop853", r, None) for r in RTOLS] + [("rk4", f * limit, f * limit) for f in RK4_STEPS]
             + [("midpoint", f * limit, f * limit) for f in MIDPOINT_STEPS])
-    points = []
+    points, of_terms = [], {}
     for ts in sets:
+        if ts.terms in of_terms:  # the same terms as an earlier set: the same runs, under this set's name
+            points += [replace(p, set=ts.label) for p in of_terms[ts.terms]]
+            continue
         model = build_model(a.body, ts.terms, scene.damping)
+        own = []
         for integrator, setting, step in runs:
             rtol = setting if step is None else 1e-8
             trials = [run_scene(model, scene, integrator, step, rtol) for _ in range(max(1, repeats))]
             run = trials[0]
             err = scene_errors(a, run, ref.run)
             used = setting if run.step is None else run.step  # fixed steps divide the sampling interval
-            points.append(Point(ts.label, integrator, float(used), min(t.wall_s for t in trials), run.nfev,
-                                worst(err), bool(run.failed or not np.isfinite(worst(err)))))
+            own.append(Point(ts.label, integrator, float(used), min(t.wall_s for t in trials), run.nfev,
+                             worst(err), bool(run.failed or not np.isfinite(worst(err)))))
+        of_terms[ts.terms] = own
+        points += own
     return points
 
 

@@ -79,30 +79,39 @@ def _initial_step(t0, y0, f0, t_end, rtol, atol, model, prog, fext, scratch, y1,
 
 
 @jit
+def _combine(coefficients, K, count, acc):
+    """acc = sum_{j < count} coefficients[j] K[j], term by term in j (a contiguous multiply-add per stage, so the
+    compiler vectorises over the state; the sum's order is the tableau's)."""
+    for i in range(acc.shape[0]):
+        acc[i] = 0.0
+    for j in range(count):
+        c, Kj = coefficients[j], K[j]
+        for i in range(acc.shape[0]):
+            acc[i] += c * Kj[i]
+
+
+@jit
 def _stages(t, y, h, K, first, last, model, prog, fext, scratch, ys):
     """K[s] for s in [first, last) from the tableau's row s (K[0] given)."""
     n = y.shape[0]
     for s in range(first, last):
+        _combine(A[s], K, s, ys)
         for i in range(n):
-            acc = 0.0
-            for j in range(s):
-                acc += A[s, j] * K[j, i]
-            ys[i] = y[i] + h * acc
+            ys[i] = y[i] + h * ys[i]
         _f(t + C[s] * h, ys, K[s], model, prog, fext, scratch)
 
 
 @jit
-def _error_norm(K, h, scale):
-    """Hairer's combined estimate: |h| e5^2 / sqrt((e5^2 + 0.01 e3^2) n), e5 and e3 in the scale's norm."""
+def _error_norm(K, h, scale, a5, a3):
+    """Hairer's combined estimate: |h| e5^2 / sqrt((e5^2 + 0.01 e3^2) n), e5 and e3 in the scale's norm (a5, a3:
+    workspace)."""
     n = scale.shape[0]
+    _combine(E5, K, STAGES + 1, a5)
+    _combine(E3, K, STAGES + 1, a3)
     e5, e3 = 0.0, 0.0
     for i in range(n):
-        a5, a3 = 0.0, 0.0
-        for s in range(STAGES + 1):
-            a5 += E5[s] * K[s, i]
-            a3 += E3[s] * K[s, i]
-        e5 += (a5 / scale[i]) ** 2
-        e3 += (a3 / scale[i]) ** 2
+        e5 += (a5[i] / scale[i]) ** 2
+        e3 += (a3[i] / scale[i]) ** 2
     if e5 == 0.0 and e3 == 0.0:
         return 0.0
     return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * n)
@@ -140,7 +149,7 @@ def integrate_dop853(y0, t_end, rtol, atol, t_out, budget, out, model, prog, fex
     n = y0.shape[0]
     scratch = (np.empty(3), np.empty(3), np.empty(3))
     K = np.empty((16, n))
-    ys, y_new, tmp = np.empty(n), np.empty(n), np.empty(n)
+    ys, y_new, tmp, a5, a3 = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     y = y0.copy()
     t = 0.0
     _f(t, y, K[0], model, prog, fext, scratch)
@@ -157,18 +166,16 @@ def integrate_dop853(y0, t_end, rtol, atol, t_out, budget, out, model, prog, fex
             t_new = min(t + h, t_end)
             h = t_new - t
             _stages(t, y, h, K, 1, STAGES, model, prog, fext, scratch, ys)
+            _combine(B, K, STAGES, y_new)
             for i in range(n):
-                acc = 0.0
-                for s in range(STAGES):
-                    acc += B[s] * K[s, i]
-                y_new[i] = y[i] + h * acc
+                y_new[i] = y[i] + h * y_new[i]
             _f(t_new, y_new, K[STAGES], model, prog, fext, scratch)
             nfev += STAGES
             if nfev > budget:
                 return row, nfev, steps, OVER_BUDGET, t
             for i in range(n):
                 tmp[i] = atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol
-            err = _error_norm(K, h, tmp)
+            err = _error_norm(K, h, tmp, a5, a3)
             if err < 1.0:  # NaN is not: a non-finite step is rejected until the step is too small
                 factor = MAX_FACTOR if err == 0.0 else min(MAX_FACTOR, SAFETY * err ** EXPONENT)
                 h *= min(1.0, factor) if rejected else factor

@@ -118,8 +118,8 @@ def _error_norm(K, h, scale, a5, a3):
 
 
 @jit
-def _sample(t_old, h, y_old, y_new, K, t_out, y_out):
-    """The order-7 interpolant of the step at t_out (K holds the 16 stages)."""
+def _sample(t_old, h, y_old, y_new, K, DK, t_out, y_out):
+    """The order-7 interpolant of the step at t_out (K holds the 16 stages, DK[r] = sum_s D[r, s] K[s])."""
     n = y_old.shape[0]
     x = (t_out - t_old) / h
     F = np.empty(7)
@@ -129,10 +129,7 @@ def _sample(t_old, h, y_old, y_new, K, t_out, y_out):
         F[1] = h * K[0, i] - dy
         F[2] = 2.0 * dy - h * (K[STAGES, i] + K[0, i])
         for r in range(4):
-            acc = 0.0
-            for s in range(16):
-                acc += D[r, s] * K[s, i]
-            F[3 + r] = h * acc
+            F[3 + r] = h * DK[r, i]
         v = 0.0
         for r in range(6, -1, -1):  # scipy's Horner scheme in x and 1 - x, from F[6] down
             v += F[r]
@@ -148,7 +145,7 @@ def integrate_dop853(y0, t_end, rtol, atol, t_out, budget, out, model, prog, fex
     """
     n = y0.shape[0]
     scratch = (np.empty(3), np.empty(3), np.empty(3))
-    K = np.empty((16, n))
+    K, DK = np.empty((16, n)), np.empty((4, n))
     ys, y_new, tmp, a5, a3 = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     y = y0.copy()
     t = 0.0
@@ -188,8 +185,10 @@ def integrate_dop853(y0, t_end, rtol, atol, t_out, budget, out, model, prog, fex
         if row < t_out.shape[0] and t_out[row] <= t_new:
             _stages(t_old, y, h_step, K, STAGES + 1, 16, model, prog, fext, scratch, ys)
             nfev += 3
+            for r in range(4):
+                _combine(D[r], K, 16, DK[r])
             while row < t_out.shape[0] and t_out[row] <= t_new:
-                _sample(t_old, h_step, y, y_new, K, t_out[row], out[row])
+                _sample(t_old, h_step, y, y_new, K, DK, t_out[row], out[row])
                 row += 1
         for i in range(n):
             y[i] = y_new[i]

@@ -1,7 +1,8 @@
 """Start-up of `ffrf-advisor` as a process, against floors measured side by side in the same run (issue 24, item 5).
 
 - `--version` and `--help` against `python -c "import typer"` (the interpreter plus typer, which the CLI
-  cannot do without); `python -c pass` shown for scale. Target: at most 1.2x.
+  cannot do without; `--version` alone is answered before typer loads, ffrf_advisor.__main__);
+  `python -c pass` shown for scale. Target: at most 1.2x.
 - `analyze` of sample_bodies/beam.ffrf.h5 against the import floor `python -c "import numpy, scipy.sparse,
   h5py"`. Target: at most 1.3x; when missed, the largest imports of the command by `-X importtime`.
 

@@ -47,3 +47,15 @@ def test_probe_sees_numpy():
     """The probe itself: a command that reads (formats lists the readers) imports numpy."""
     code, heavy = heavy_imports("formats")
     assert code == 0 and "numpy" in heavy
+
+
+def test_version_alone_is_answered_before_the_cli_is_built():
+    """`ffrf-advisor --version` prints the line of the CLI's own --version without importing typer."""
+    from ffrf_advisor import version_line
+    probe = ("import runpy, sys; sys.argv = ['ffrf-advisor', '--version']; "
+             "runpy.run_module('ffrf_advisor', run_name='__main__'); print('typer' in sys.modules)")
+    fast = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout
+    typer_path = subprocess.run([sys.executable, "-c", PROBE, "--version"], capture_output=True, text=True,
+                                check=True).stdout
+    assert fast.splitlines() == [version_line(), "False"]
+    assert typer_path.splitlines()[0] == version_line()

@@ -17,7 +17,7 @@ import typer
 from typer._click.exceptions import NoArgsIsHelpError, UsageError  # typer vendors click (pinned)
 from typer.core import TyperArgument, TyperGroup
 
-from . import __version__
+from . import version_line
 from .cli_options import AnalysisArgs, Density, Eigenvalues, UnitSystem, analysis_options, numbers, read_any
 from .errors import FFRFError
 from .names import INTEGRATORS, MAX_MEMORY_ENV, SAMPLES, SCENES, SCHEMA_COMMANDS, SOLVERS
@@ -149,7 +149,7 @@ Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress and no n
 
 def _version(value: bool):
     if value:
-        print(f"ffrf-advisor {__version__}")
+        print(version_line())
         raise typer.Exit()
 
 

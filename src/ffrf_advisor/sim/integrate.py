@@ -208,10 +208,10 @@ class _MidpointStepper:
         f0 = f(t + h / 2, y)
         if self.fresh:
             self.inverse = self._inverse(f, t, y, h, f0)
-        Y, reason, theta = self._newton(f, t, y, h, f0)
+        Y, reason, theta = self._newton(f, t, y, h, f0, kept=not self.fresh)
         if not self.fresh and reason not in ("", REASONS[2]):
             self.inverse = self._inverse(f, t, y, h, f0)
-            Y, reason, theta = self._newton(f, t, y, h, f0)
+            Y, reason, theta = self._newton(f, t, y, h, f0, kept=False)
         self.fresh = theta > THETA_REFRESH
         return Y, reason
 
@@ -228,8 +228,9 @@ class _MidpointStepper:
             J[:, j] = (f(t + h / 2, yj) - f0) / d
         return np.linalg.inv(np.eye(n) - h / 2 * J)
 
-    def _newton(self, f, t, y, h, f0):
-        """(Y, failure reason, largest ratio of successive corrections) from the Euler predictor."""
+    def _newton(self, f, t, y, h, f0, kept):
+        """(Y, failure reason, largest ratio of successive corrections) from the Euler predictor; ``kept``: a
+        growing correction ends the iteration (the inverse is from an earlier step)."""
         from .midpoint import NEWTON_MAX, NEWTON_TOL
         Y, theta, last = y + h * f0, 0.0, np.inf
         for it in range(NEWTON_MAX):
@@ -240,7 +241,7 @@ class _MidpointStepper:
             dn = np.linalg.norm(dY)
             if it > 0:
                 theta = max(theta, dn / last)
-                if dn >= last:
+                if kept and dn >= last:
                     return Y, MIDPOINT_FAILURES[3], theta
             last = dn
             if dn <= NEWTON_TOL * (1 + np.linalg.norm(Y)):

@@ -8,8 +8,8 @@ many), kept
 from step to step as implicit codes keep theirs (Hairer and Wanner, Solving
 ODEs II, IV.8): J is taken again at the start of the next step when a step's
 iteration contracted by less than ``THETA_REFRESH`` per iteration, and at
-once, the step restarted, when an iteration on a kept J diverges, overflows
-or runs out of iterations. The iteration stops when the last correction is
+once, the step restarted, when an iteration on a kept J grows, overflows
+or runs out of iterations (on a fresh J it runs to ``NEWTON_MAX``). The iteration stops when the last correction is
 below ``NEWTON_TOL (1 + |Y|)``; the fixed point, and so the step, is the
 same whichever J drove the iteration (to that tolerance). The same
 algorithm as the Python reference ``integrate._MidpointStepper`` (the tests
@@ -105,9 +105,11 @@ def _apply(W, r, x):
 
 
 @jit
-def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R):
+def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R, kept):
     """Y from the Euler predictor by the simplified Newton iteration with the inverse W of ``_newton_inverse``:
-    (code, iterations, largest ratio of successive corrections)."""
+    (code, iterations, largest ratio of successive corrections). ``kept``: W is from an earlier step, and a
+    correction that grows ends the iteration (DIVERGING: the caller takes J again); on a fresh W it goes on to
+    NEWTON_MAX."""
     n = y.shape[0]
     for i in range(n):
         Y[i] = y[i] + h * f0[i]
@@ -129,7 +131,7 @@ def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R):
         dn = np.sqrt(dn)
         if it > 0:
             theta = max(theta, dn / last)
-            if dn >= last:
+            if kept and dn >= last:
                 return DIVERGING, it + 1, theta
         last = dn
         if dn <= NEWTON_TOL * (1.0 + np.sqrt(yn)):
@@ -153,13 +155,13 @@ def _step(t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, f0, fj, ym, 
     if fresh:
         _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, fj, ym)
         nfev += n
-    code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R)
+    code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R, not fresh)
     nfev += iterations
     if not fresh and code != OK and code != QUATERNION:
         _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, fj, ym)
-        code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R)
+        code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R, False)
         nfev += n + iterations
-    return (NO_NEWTON if code == DIVERGING else code), nfev, theta > THETA_REFRESH
+    return code, nfev, theta > THETA_REFRESH
 
 
 @jit

@@ -17,11 +17,17 @@ SYM_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))  # the six centrifu
 CASES = tuple(f"w{k + 1}w{l + 1}" for k, l in SYM_PAIRS)  # their names (theory 12)
 
 
+def pair_weights(w: np.ndarray) -> np.ndarray:
+    """(..., 6): ``w_k w_l``, doubled for k != l, for the load cases kl in SYM_PAIRS order (theory 9); w may
+    carry leading batch axes."""
+    w = np.asarray(w)
+    return np.stack([w[..., k] * w[..., l] * (1 if k == l else 2) for k, l in SYM_PAIRS], axis=-1)
+
+
 def pairs_at(G: np.ndarray, w: np.ndarray) -> np.ndarray:
     """``G(w) = sum_kl w_k w_l G_kl`` from the six matrices of the load cases kl (theory 9); w may carry
     leading batch axes."""
-    w = np.asarray(w)
-    return sum((w[..., k] * w[..., l] * (1 if k == l else 2))[..., None, None] * g for (k, l), g in zip(SYM_PAIRS, G))
+    return sum(c[..., None, None] * g for c, g in zip(np.moveaxis(pair_weights(w), -1, 0), G))
 
 
 def rotated_pairs(G: np.ndarray, R: np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..body import pairs_at  # G(w) from the six G_kl (theory 9)
+from ..body import pair_weights  # G(w) = sum_c weights_c(w) G_c from the six G_kl (theory 9)
 from .model import N_ROT, Model
 
 
@@ -71,8 +71,8 @@ def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray) -> np.ndarray:
 
 
 def coupling_matrix(m: Model, q: np.ndarray) -> np.ndarray:
-    """``C = Qf^T W3`` (3 x nf): rows ``W3k[k]^T q``."""
-    return np.einsum("krs,...r->...ks", m.W3k, q)
+    """``C = Qf^T W3`` (3 x nf): rows ``W3k[k]^T q`` (one BLAS product over the batch)."""
+    return np.tensordot(q, m.W3k, axes=([-1], [1]))
 
 
 def inertia(m: Model, q: np.ndarray) -> np.ndarray:
@@ -105,11 +105,13 @@ def flexible_force(m: Model, q, qd, w, fext) -> np.ndarray:
     if m.on("cf1"):
         f = f + w2 * np.einsum("mmr->r", m.Ibar) - np.einsum("...kl,klr->...r", ww, m.Ibar)
     if m.on("cf2"):
-        f = f + w2 * np.einsum("mmrs,...s->...r", m.Sbar, q) - np.einsum("...kl,lkrs,...s->...r", ww, m.Sbar, q)
+        Sq = np.tensordot(q, m.Sbar, axes=([-1], [3]))  # (..., 3, 3, nf): Sbar[a, b] q, one BLAS product
+        f = f + w2 * np.einsum("...mmr->...r", Sq) - np.einsum("...kl,...lkr->...r", ww, Sq)
     if m.on("cor_coupling"):
         f = f - 2 * np.einsum("...ks,...k->...s", coupling_matrix(m, qd), w)
     if m.on("geo_stiff"):
-        f = f - mv(pairs_at(m.G, w), q)
+        Gq = np.tensordot(q, m.G, axes=([-1], [2]))  # (..., 6, nf): G_kl q
+        f = f - np.einsum("...c,...cr->...r", pair_weights(w), Gq)
     return f
 
 

@@ -96,3 +96,35 @@ def test_sigterm_ends_the_run_with_143_and_an_old_or_complete_target(tmp_path, c
         assert code in (ended + (0, 1) if finishing or not signalled else ended), (i, code, signalled, delay, took)
         assert target.read_bytes() == before or _complete(kind, target), (i, code)
         assert not list(tmp_path.glob(".*.tmp")), (i, code, sorted(p.name for p in tmp_path.iterdir()))
+
+
+RECREATING_WRITER = """
+import sys, time
+from pathlib import Path
+from ffrf_advisor.io import guard
+from ffrf_advisor.io.atomic import atomic_path, terminate_cleanly
+target = Path(sys.argv[1])
+def write(tmp):  # as the HDF5 library's 'w' mode would on a path removed under it: create it again, at once
+    while True:
+        if not tmp.exists():
+            tmp.write_bytes(b"x")
+with terminate_cleanly(), atomic_path(target) as tmp:
+    print("writing", flush=True)
+    guard.run_writer(target, write, tmp)
+"""
+
+
+@pytest.mark.slow
+def test_sigterm_kills_the_writer_child_before_removing_its_temporary(tmp_path):
+    """A writer child (io.guard) that creates the temporary again as soon as it is gone: the SIGTERM handler
+    kills and reaps it before it removes the temporaries, so nothing is left (dying with the parent alone left
+    the child the parent's exit to recreate it in)."""
+    for _ in range(5):
+        proc = subprocess.Popen([sys.executable, "-c", RECREATING_WRITER, str(tmp_path / "out.ffrf.h5")],
+                                stdout=subprocess.PIPE, text=True, start_new_session=True)
+        assert proc.stdout.readline() == "writing\n"
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=30) == 143
+        time.sleep(0.3)
+        assert not list(tmp_path.glob(".*.tmp")) and not _group_alive(proc.pid)

@@ -1,9 +1,11 @@
 """Atomic output: write to a temporary file beside the target, fsync, then rename.
 
 The temporary file ``.NAME.PID.*.tmp`` is removed on any failure and on
-SIGTERM (in the main thread: the process then ends at once with 143); one
-left by a killed process (SIGKILL, power loss) is swept by the next write to
-the same target once its process is gone.
+SIGTERM (in the main thread: the process then ends at once with 143, after
+killing and reaping its children, ``track_child``: a writer child must not
+create the temporary again after it was removed); one left by a killed
+process (SIGKILL, power loss) is swept by the next write to the same target
+once its process is gone.
 """
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ from ..errors import FFRFError
 
 _RUN_INPUTS: ContextVar[list[Path] | None] = ContextVar("run_inputs", default=None)
 _TEMPORARIES: set[Path] = set()  # this process's temporaries being written
+_CHILDREN: set[int] = set()  # this process's forked children (io.guard), killed before the temporaries go
 
 
 @contextmanager
@@ -149,7 +152,32 @@ def terminate_cleanly():
         signal.signal(signal.SIGTERM, previous)
 
 
+@contextmanager
+def track_child(fork) -> Iterator[int]:
+    """``pid = fork()`` (in the child: 0) with SIGTERM held until the pid is noted, so the handler of
+    ``terminate_cleanly`` kills and reaps it before it removes the temporaries; the pid is forgotten on the
+    way out (the caller reaps the child before)."""
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    pid = fork()
+    if pid == 0:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        yield pid
+        return
+    _CHILDREN.add(pid)
+    signal.pthread_sigmask(signal.SIG_SETMASK, held)
+    try:
+        yield pid
+    finally:
+        _CHILDREN.discard(pid)
+
+
 def _on_terminate(signum, frame) -> None:  # noqa: ARG001
+    for pid in list(_CHILDREN):
+        try:
+            os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+        except OSError:
+            pass
     for tmp in list(_TEMPORARIES):
         try:
             os.unlink(tmp)

@@ -28,6 +28,7 @@ import struct
 import time
 
 from ..errors import BodyFileError, FFRFError
+from .atomic import track_child
 from .limits import ENV, human, max_bytes
 
 BASE_SECONDS = 30.0  # a valid file reads in well under this ...
@@ -89,20 +90,20 @@ def _forked(child, deadline: float, receive=None) -> tuple[object, int | None]:
     ``receive(fd, deadline)`` reads it (default ``_collect``; None past the ``deadline``, time.monotonic), and
     its wait status (None when killed here). The child is killed and reaped on every path out."""
     read_end, write_end = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # child: never returns into the caller's code
-        os.close(read_end)
-        child(write_end)
-    os.close(write_end)
-    status = None
-    try:
-        data = (receive or _collect)(read_end, deadline)
-        if data is not None:
-            status, pid = os.waitpid(pid, 0)[1], 0
-    finally:
-        os.close(read_end)
-        if pid:
-            _kill(pid)
+    with track_child(os.fork) as pid:  # a SIGTERM here kills and reaps the child first (io.atomic)
+        if pid == 0:  # child: never returns into the caller's code
+            os.close(read_end)
+            child(write_end)
+        os.close(write_end)
+        status = None
+        try:
+            data = (receive or _collect)(read_end, deadline)
+            if data is not None:
+                status, pid = os.waitpid(pid, 0)[1], 0
+        finally:
+            os.close(read_end)
+            if pid:
+                _kill(pid)
     return data, status
 
 

@@ -2,7 +2,7 @@
 
 The temporary file ``.NAME.PID.*.tmp`` is removed on any failure and on
 SIGTERM (in the main thread: the process then ends at once with 143, after
-killing and reaping its children, ``track_child``: a writer child must not
+killing and reaping its children, ``forked_child``: a writer child must not
 create the temporary again after it was removed); one left by a killed
 process (SIGKILL, power loss) is swept by the next write to the same target
 once its process is gone.
@@ -153,12 +153,12 @@ def terminate_cleanly():
 
 
 @contextmanager
-def track_child(fork) -> Iterator[int]:
-    """``pid = fork()`` (in the child: 0) with SIGTERM held until the pid is noted, so the handler of
+def forked_child() -> Iterator[int]:
+    """``pid = os.fork()`` (in the child: 0) with SIGTERM held until the pid is noted, so the handler of
     ``terminate_cleanly`` kills and reaps it before it removes the temporaries; the pid is forgotten on the
-    way out (the caller reaps the child before)."""
+    way out (the caller reaps the child before, ``kill_and_reap``)."""
     held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
-    pid = fork()
+    pid = os.fork()
     if pid == 0:
         signal.pthread_sigmask(signal.SIG_SETMASK, held)
         yield pid
@@ -171,13 +171,18 @@ def track_child(fork) -> Iterator[int]:
         _CHILDREN.discard(pid)
 
 
+def kill_and_reap(pid: int) -> None:
+    """SIGKILL a child of this process and wait for it (nothing when it is already gone)."""
+    try:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+    except OSError:  # ProcessLookupError, ChildProcessError
+        pass
+
+
 def _on_terminate(signum, frame) -> None:  # noqa: ARG001
     for pid in list(_CHILDREN):
-        try:
-            os.kill(pid, signal.SIGKILL)
-            os.waitpid(pid, 0)
-        except OSError:
-            pass
+        kill_and_reap(pid)
     for tmp in list(_TEMPORARIES):
         try:
             os.unlink(tmp)

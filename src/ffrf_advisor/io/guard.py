@@ -28,7 +28,7 @@ import struct
 import time
 
 from ..errors import BodyFileError, FFRFError
-from .atomic import track_child
+from .atomic import forked_child, kill_and_reap
 from .limits import ENV, human, max_bytes
 
 BASE_SECONDS = 30.0  # a valid file reads in well under this ...
@@ -90,7 +90,7 @@ def _forked(child, deadline: float, receive=None) -> tuple[object, int | None]:
     ``receive(fd, deadline)`` reads it (default ``_collect``; None past the ``deadline``, time.monotonic), and
     its wait status (None when killed here). The child is killed and reaped on every path out."""
     read_end, write_end = os.pipe()
-    with track_child(os.fork) as pid:  # a SIGTERM here kills and reaps the child first (io.atomic)
+    with forked_child() as pid:  # a SIGTERM here kills and reaps the child first (io.atomic)
         if pid == 0:  # child: never returns into the caller's code
             os.close(read_end)
             child(write_end)
@@ -103,7 +103,7 @@ def _forked(child, deadline: float, receive=None) -> tuple[object, int | None]:
         finally:
             os.close(read_end)
             if pid:
-                _kill(pid)
+                kill_and_reap(pid)
     return data, status
 
 
@@ -307,14 +307,6 @@ def _collect(fd: int, deadline: float) -> bytes | None:
         if not chunk:
             return b"".join(chunks)
         chunks.append(chunk)
-
-
-def _kill(pid: int) -> None:
-    try:
-        os.kill(pid, signal.SIGKILL)
-        os.waitpid(pid, 0)
-    except (ProcessLookupError, ChildProcessError):
-        pass
 
 
 def _failure(path, seconds: float, status: int | None) -> str:

@@ -18,7 +18,7 @@ from ..analysis import Analysis
 from ..sim.integrate import rk4_limit
 from ..sim.model import build_model
 from .measures import worst
-from .runner import Reference, TermSet, run_scene, scene_errors
+from .runner import Reference, TermSet, distinct, run_scene, scene_errors
 from .scenes import Scene
 
 RTOLS = (1e-3, 1e-5, 1e-7, 1e-9)
@@ -39,27 +39,27 @@ class Point:
 
 def work_precision(a: Analysis, scene: Scene, ref: Reference, sets: tuple[TermSet, ...],
                    repeats: int = 1) -> list[Point]:
-    """The work-precision points of ``sets`` in ``scene`` (sets with the same terms share their runs)."""
+    """The work-precision points of ``sets`` in ``scene``; sets with the same terms share the runs of the first
+    (``runner.distinct``), each under its own name."""
     limit = rk4_limit(a.body.eigenvalues)
     runs = ([("dop853", r, None) for r in RTOLS] + [("rk4", f * limit, f * limit) for f in RK4_STEPS]
             + [("midpoint", f * limit, f * limit) for f in MIDPOINT_STEPS])
-    points, of_terms = [], {}
-    for ts in sets:
-        if ts.terms in of_terms:  # the same terms as an earlier set: the same runs, under this set's name
-            points += [replace(p, set=ts.label) for p in of_terms[ts.terms]]
-            continue
-        model = build_model(a.body, ts.terms, scene.damping)
-        own = []
-        for integrator, setting, step in runs:
-            rtol = setting if step is None else 1e-8
-            trials = [run_scene(model, scene, integrator, step, rtol) for _ in range(max(1, repeats))]
-            run = trials[0]
-            err = scene_errors(a, run, ref.run)
-            used = setting if run.step is None else run.step  # fixed steps divide the sampling interval
-            own.append(Point(ts.label, integrator, float(used), min(t.wall_s for t in trials), run.nfev,
-                             worst(err), bool(run.failed or not np.isfinite(worst(err)))))
-        of_terms[ts.terms] = own
-        points += own
+    of_terms = {ts.terms: _points(a, scene, ref, ts, runs, repeats) for ts in distinct(sets)}
+    return [replace(p, set=ts.label) for ts in sets for p in of_terms[ts.terms]]
+
+
+def _points(a: Analysis, scene: Scene, ref: Reference, ts: TermSet, runs, repeats: int) -> list[Point]:
+    """The points of one set: each of ``runs`` (integrator, setting, fixed step or None) against the reference."""
+    model = build_model(a.body, ts.terms, scene.damping)
+    points = []
+    for integrator, setting, step in runs:
+        rtol = setting if step is None else 1e-8
+        trials = [run_scene(model, scene, integrator, step, rtol) for _ in range(max(1, repeats))]
+        run = trials[0]
+        err = scene_errors(a, run, ref.run)
+        used = setting if run.step is None else run.step  # fixed steps divide the sampling interval
+        points.append(Point(ts.label, integrator, float(used), min(t.wall_s for t in trials), run.nfev,
+                            worst(err), bool(run.failed or not np.isfinite(worst(err)))))
     return points
 
 

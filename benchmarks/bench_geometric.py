@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from ffrf_advisor.adequacy import static_centrifugal
+from ffrf_advisor.centrifugal import static_centrifugal
 from ffrf_advisor.fe.assembly import mass_matrix, stiffness_matrix
 from ffrf_advisor.fe.geometric import modal_geometric
 from ffrf_advisor.fe.modal import free_free_modes

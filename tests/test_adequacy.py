@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from ffrf_advisor.adequacy import basis_errors, centrifugal_loads, static_centrifugal
+from ffrf_advisor.adequacy import basis_errors
+from ffrf_advisor.centrifugal import centrifugal_loads, static_centrifugal
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.augment import augment
 from ffrf_advisor.checks import run_checks

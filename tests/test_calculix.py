@@ -155,7 +155,7 @@ def test_prestressed_spinning_frequencies_agree_with_calculix_perturbation_step(
     kron(Ms, I - a a^T)). Measured: the five positive eigenvalues agree to 0.5 % (CalculiX evaluates the
     prestress at its integration points, we at ours from the same displacement field), and both find the
     lowest one negative (the spin-softened mode)."""
-    from ffrf_advisor.adequacy import centrifugal_loads, static_deflections, support_dofs
+    from ffrf_advisor.centrifugal import centrifugal_loads, static_deflections, support_dofs
     from ffrf_advisor.fe.assembly import full_mass, mass_matrix, stiffness_matrix
     from ffrf_advisor.fe.geometric import geometric_scalar
     from ffrf_advisor.io.calculix import _dat_eigenvalues

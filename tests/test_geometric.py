@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from ffrf_advisor.adequacy import static_centrifugal
+from ffrf_advisor.centrifugal import static_centrifugal
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.body import rotated_pairs
 from ffrf_advisor.fe.assembly import full_mass, stiffness_matrix

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from ffrf_advisor.adequacy import basis_errors, centrifugal_loads, static_deflections
+from ffrf_advisor.adequacy import basis_errors
+from ffrf_advisor.centrifugal import centrifugal_loads, static_deflections
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.augment import with_residual_vectors
 from ffrf_advisor.body import Provenance

@@ -9,7 +9,7 @@ import pytest
 import scipy.sparse as sp
 
 from ffrf_advisor.adams import to_adams
-from ffrf_advisor.adequacy import static_centrifugal
+from ffrf_advisor.centrifugal import static_centrifugal
 from ffrf_advisor.body import FlexibleBody, ModalFE, NodalRotary, Provenance
 from ffrf_advisor.checks import check_values
 from ffrf_advisor.errors import FFRFError

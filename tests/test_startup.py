@@ -1,4 +1,5 @@
-"""Start-up: `--version`, `--help` and `COMMAND --help` import neither numpy nor scipy (issue 24, item 5).
+"""Start-up: `--version`, `--help` and `COMMAND --help` import neither numpy nor scipy (issue 24, item 5), and
+the commands that analyse a body with a cache import neither scipy nor pydantic (items 3 and 5).
 
 Each case runs the CLI in a fresh interpreter and lists the heavy packages it imported by then;
 benchmarks/bench_startup.py times the same runs.
@@ -7,13 +8,15 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 import typer
 
 from ffrf_advisor.cli import app
 
-HEAVY = ("numpy", "scipy", "h5py", "numba", "matplotlib", "weasyprint")
+ROOT = Path(__file__).resolve().parent.parent
+HEAVY = ("numpy", "scipy", "h5py", "numba", "matplotlib", "weasyprint", "pydantic")
 PROBE = f"""
 import sys
 from ffrf_advisor.cli import app
@@ -59,3 +62,20 @@ def test_version_alone_is_answered_before_the_cli_is_built():
                                 check=True).stdout
     assert fast.splitlines() == [version_line(), "False"]
     assert typer_path.splitlines()[0] == version_line()
+
+
+@pytest.fixture(scope="module")
+def cached_beam(tmp_path_factory):
+    """The beam written again by the tool: with its invariants and nodal summary cached."""
+    from ffrf_advisor.io import read_body, write_body
+    path = tmp_path_factory.mktemp("cached") / "beam.ffrf.h5"
+    write_body(read_body(ROOT / "sample_bodies" / "beam.ffrf.h5", load_fe=True), path)
+    return path
+
+
+@pytest.mark.parametrize("args", [["info"], ["analyze", "--speed", "300rad/s"], ["settings", "--solver", "adams"],
+                                  ["gate", "--speed", "300rad/s", "--max-level", "IV"]], ids=lambda a: a[0])
+def test_a_cached_body_is_analysed_without_scipy_or_pydantic(cached_beam, args):
+    """scipy.sparse is for FE data, pydantic was typer's coercion (cli_params): together 0.15 s per command."""
+    code, heavy = heavy_imports(args[0], str(cached_beam), *args[1:])
+    assert code == 0 and {"numpy", "h5py"} <= heavy and not heavy & {"scipy", "pydantic", "numba"}, heavy

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .adequacy import static_centrifugal
+from .centrifugal import static_centrifugal
 from .body import FlexibleBody
 from .errors import FFRFError
 from .fe.assembly import full_mass, stiffness_matrix

@@ -2,15 +2,18 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
 
 from .fe.material import Material
 from .fe.mesh import Mesh
 from .invariants import (RotaryIntegrals, ShapeIntegrals, block_rows, frozen_array, largest_squares, principal_axes,
                          rotary_integrals, shape_integrals)
 from .units import TMM, Units, factor
+
+if TYPE_CHECKING:  # scipy.sparse is imported where FE data is used: analysing a cached body needs none
+    import scipy.sparse as sp
 
 MASS_KINDS = ("consistent", "lumped", "unknown")
 SYM_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))  # the six centrifugal load cases kl (theory 9)
@@ -147,6 +150,7 @@ class ModalFE:
         Phi = np.einsum("ak,iap->ikp", R, self.Phi)
         K = self.K
         if K is not None:
+            import scipy.sparse as sp
             T = sp.kron(sp.eye_array(self.mesh.n_nodes), R, format="csr")
             K = sp.csr_array(T.T @ K @ T)
         rotary = None if self.rotary is None else self.rotary.transformed(R)
@@ -183,7 +187,7 @@ def _permutation(R: np.ndarray) -> bool:
 
 @dataclass(frozen=True)
 class StaticCentrifugal:
-    """Exact static centrifugal response per principal axis at unit spin (theory 11; ``adequacy``): the
+    """Exact static centrifugal response per principal axis at unit spin (theory 11; ``centrifugal``): the
     compliance f^T u [energy time^4] and the largest von Mises stress of u [stress time^2]. Depends on the
     FE model only, not on the kept modes."""
 

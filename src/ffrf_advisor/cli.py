@@ -18,6 +18,7 @@ from typer._click.exceptions import NoArgsIsHelpError, UsageError  # typer vendo
 from typer.core import TyperArgument, TyperGroup
 
 from . import version_line
+from .cli_params import plain_runtime_param
 from .cli_options import AnalysisArgs, Density, Eigenvalues, UnitSystem, analysis_options, numbers, read_any
 from .errors import FFRFError
 from .names import INTEGRATORS, MAX_MEMORY_ENV, SAMPLES, SCENES, SCHEMA_COMMANDS, SOLVERS
@@ -84,7 +85,20 @@ class OneLineUsage(TyperGroup):
         command = super().get_command(ctx, name)
         if command is not None:
             _plain_metavars(command)
+            if ctx is not None:
+                _plain_coercion(command.get_help_option(ctx))
         return command
+
+    def get_help_option(self, ctx):
+        option = super().get_help_option(ctx)
+        _plain_coercion(option)
+        return option
+
+
+def _plain_coercion(param) -> None:
+    """The parameter's values coerced by cli_params (no pydantic) where its type allows."""
+    if param is not None and param._runtime_param is None:
+        param._runtime_param = plain_runtime_param(param)
 
 
 PLAIN_TYPES = {"str": "TEXT", "float": "NUMBER", "int": "INTEGER", "Path": "PATH"}
@@ -92,8 +106,9 @@ PLAIN_TYPES = {"str": "TEXT", "float": "NUMBER", "int": "INTEGER", "Path": "PATH
 
 def _plain_metavars(command) -> None:
     """Help in the words of man pages: ``BODY``, ``--speed TEXT``, ``--jobs INTEGER`` (typer shows ``{body}``,
-    ``<str>``, ``<int range>``)."""
+    ``<str>``, ``<int range>``); values coerced without pydantic (cli_params)."""
     for param in command.params:
+        _plain_coercion(param)
         if param.metavar is not None or getattr(param, "is_flag", False):
             continue
         if isinstance(param, TyperArgument):

@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import scipy.sparse as sp
 
-from .adequacy import static_centrifugal
+from .centrifugal import static_centrifugal
 from .body import FlexibleBody, ModalFE, Provenance
 from .units import TMM, Units
 from .fe.assembly import full_mass, mass_matrix, stiffness_matrix

@@ -7,11 +7,14 @@ approximation when Ms is diagonal.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
 
 from .units import Units, factor
+
+if TYPE_CHECKING:  # imported by the nodal sums that use it: a cached body's analysis needs no scipy
+    import scipy.sparse as sp
 
 # Levi-Civita symbol eps[k, l, m]
 EPS = np.zeros((3, 3, 3))
@@ -183,6 +186,7 @@ class ShapeIntegrals:
 def shape_integrals(X: np.ndarray, Ms: sp.sparray, Phi, rotary: RotaryIntegrals | None = None) -> ShapeIntegrals:
     """Shape integrals from node coordinates X (n, 3), scalar mass Ms (n, n) and modes Phi (n, 3, nf) in
     memory, with the sums of the nodes that carry rotary inertia (``rotary_integrals``, theory 3b)."""
+    import scipy.sparse as sp
     Ms = sp.csr_array(Ms)
     return nodal_pass(X, lambda a, b: Ms[a:b], lambda a, b: Phi[a:b], Phi.shape[2], rotary).integrals
 
@@ -217,6 +221,7 @@ def nodal_pass(X: np.ndarray, Ms_rows, Phi_rows, nf: int, rotary: RotaryIntegral
     then ``Phi^T Ms Phi += Phi[a:b]^T Y`` and ``[1, X]^T Ms Phi += [1, X][a:b]^T Y``.
     Extra memory: a few blocks, whatever n.
     """
+    import scipy.sparse as sp
     n = len(X)
     rows = rows or block_rows(nf)
     Xe = np.column_stack([np.ones(n), X])  # [1, x1, x2, x3]
@@ -253,6 +258,7 @@ def largest_squares(Phi: np.ndarray) -> np.ndarray:
 def _block_product(Msi: sp.csr_array, Phi_rows, a: int, b: int, rows: int, nf: int) -> tuple[np.ndarray, np.ndarray]:
     """(Phi[a:b], Ms[a:b] Phi) as (b - a, 3 nf) arrays; Phi read over the node range the block's columns reach
     when it spans at most SPAN blocks, else over the column blocks it touches, one at a time."""
+    import scipy.sparse as sp
     cols = Msi.indices
     lo, hi = (min(a, int(cols.min())), max(b, int(cols.max()) + 1)) if cols.size else (a, b)
     if hi - lo <= SPAN * rows:

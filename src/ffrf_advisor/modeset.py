@@ -28,7 +28,6 @@ from .analysis import Analysis
 from .predict import MARGIN
 from .body import CASES, SYM_PAIRS, FlexibleBody
 from .errors import FFRFError
-from .fe.stress import modal_von_mises
 from .significance import f_cf1
 from .sim.cost import rhs_cost
 from .sim.model import build_model
@@ -101,8 +100,9 @@ def inertia_loads(body: FlexibleBody) -> InertiaLoads:
                             "invariants (W1); compliances of the principal cases from the file's cache"
                             if body.static_centrifugal is not None else "invariants (W1): no compliance, "
                             "the static error cannot be bounded: the frequency band decides alone", sigma=sigma)
-    from .adequacy import centrifugal_loads, static_deflections
+    from .centrifugal import centrifugal_loads, static_deflections
     from .fe.assembly import full_mass, stiffness_matrix
+    from .fe.stress import modal_von_mises
     X = fe.mesh.points
     K = fe.K if fe.K is not None else stiffness_matrix(fe.mesh, fe.material)
     F = centrifugal_loads(X, fe.Ms)
@@ -474,7 +474,8 @@ def _case_error(j: int, kept, body, loads: InertiaLoads, p, tol: float, weight: 
     ix = list(kept)
     energy = float(np.sqrt(max(0.0, 1.0 - p[ix, j].sum()))) if loads.bounded[j] else None
     stress = None
-    if loads.stress is not None:
+    if loads.stress is not None:  # FE data: the residual's stress
+        from .fe.stress import modal_von_mises
         q = loads.P[ix, j] / body.eigenvalues[ix]
         n = body.fe.mesh.n_nodes
         rest = loads.U[:, j] - body.fe.Phi[:, :, ix].reshape(3 * n, len(ix)) @ q

@@ -5,7 +5,7 @@ For a Cauchy prestress sigma the geometric stiffness is
 nodal matrix ``Ks`` (n x n) times I3, like the mass, so the modal matrix is
 ``Phi^T K_G Phi = sum_i Phi_i^T Ks Phi_i`` over the three components. The
 prestress of each centrifugal load case comes from its static deflection
-(``adequacy.static_centrifugal``); the element integrals use the elements'
+(``centrifugal.static_centrifugal``); the element integrals use the elements'
 full Gauss rules.
 """
 from __future__ import annotations

@@ -5,7 +5,6 @@ from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
 import numpy as np
-import scipy.sparse as sp
 
 from .elements import element_type
 
@@ -50,12 +49,13 @@ class Mesh:
         Closes the seam of a box mesh mapped onto a full turn (``cylindrical``),
         where the faces at angle 0 and 2 pi land on each other.
         """
-        from scipy.spatial import cKDTree  # here: 0.1 s to import, only meshes that close a turn need it
+        import scipy.sparse as sp  # scipy here: only meshes that close a turn need it
+        from scipy.sparse.csgraph import connected_components
+        from scipy.spatial import cKDTree
 
         n = self.n_nodes
         pairs = cKDTree(self.points).query_pairs(tol, output_type="ndarray")
         graph = sp.coo_array((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-        from scipy.sparse.csgraph import connected_components  # scipy.linalg: ~0.1 s of import the analysis of a cached body does without
         _, label = connected_components(graph, directed=False)
         _, first = np.unique(label, return_index=True)  # one node of each group, by label
         return Mesh(self.points[first], {name: label[conn] for name, conn in self.cells.items()})

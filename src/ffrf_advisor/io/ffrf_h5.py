@@ -8,10 +8,10 @@ from __future__ import annotations
 import os
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import h5py
 import numpy as np
-import scipy.sparse as sp
 
 from .. import __version__
 from ..body import MASS_KINDS, FlexibleBody, ModalFE, NodalRotary, NodalSummary, Provenance, StaticCentrifugal
@@ -24,6 +24,9 @@ from ..units import Units, UnitsError
 from .atomic import atomic_path
 from . import guard
 from .limits import TREE_BYTES_PER_BYTE, Budget, check_hdf5_references
+
+if TYPE_CHECKING:  # imported where the FE data is read or written: a cached body's analysis needs no scipy
+    import scipy.sparse as sp
 
 FORMAT_NAME = "ffrf-body"
 VERSION = 3  # 2: optional /material, /static_centrifugal, /geometric_stiffness; 3: optional /rotary (docs/format.md)
@@ -43,6 +46,7 @@ def _dataset(group: h5py.Group, name: str, data: np.ndarray, chunk_rows: bool = 
 
 
 def _write_csr(group: h5py.Group, name: str, A: sp.sparray) -> None:
+    import scipy.sparse as sp
     A = sp.csr_array(A)
     A.sort_indices()
     g = group.create_group(name, track_order=True)
@@ -199,6 +203,7 @@ class _Reader:
         if (indptr[0] != 0 or indptr[-1] != len(data) or np.any(np.diff(indptr) < 0)
                 or (len(indices) and (indices.min() < 0 or indices.max() >= shape[1]))):
             self.fail(name, "a valid CSR matrix (monotone indptr, indices in range)")
+        import scipy.sparse as sp
         return sp.csr_array((data, indices, indptr), shape=shape)
 
 
@@ -252,6 +257,7 @@ def _mass(r: _Reader, n: int) -> sp.csr_array:
     if "mass/Ms" in r.f:
         Ms = r.csr("mass/Ms", (n, n))
     elif "mass/M" in r.f:
+        import scipy.sparse as sp
         M = r.csr("mass/M", (3 * n, 3 * n))
         Ms = sp.csr_array(M[0::3, 0::3])
         if abs(M - sp.kron(Ms, sp.eye_array(3))).max() > 1e-12 * abs(Ms).max():

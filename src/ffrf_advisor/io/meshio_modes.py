@@ -210,7 +210,7 @@ def _stress(path, m, n_nodes: int, numbers: list[int]) -> np.ndarray | None:
 def write(body: FlexibleBody, path, overwrite: bool = False) -> None:
     """The body as a VTU/VTK mesh (module docstring), in t-mm-N-s, written atomically."""
     import meshio
-    from ..adequacy import static_centrifugal
+    from ..centrifugal import static_centrifugal
     from ..units import TMM
     if body.fe is None:
         raise FFRFError(f"{path}: a mesh file holds nodal FE data; {body.name} has invariants only")

@@ -79,3 +79,16 @@ def test_a_cached_body_is_analysed_without_scipy_or_pydantic(cached_beam, args):
     """scipy.sparse is for FE data, pydantic was typer's coercion (cli_params): together 0.15 s per command."""
     code, heavy = heavy_imports(args[0], str(cached_beam), *args[1:])
     assert code == 0 and {"numpy", "h5py"} <= heavy and not heavy & {"scipy", "pydantic", "numba"}, heavy
+
+
+def test_help_builds_no_command_and_lists_what_the_built_commands_say():
+    """LazyCommands: the command list of --help comes from the docstrings, as click shortens a built command's
+    help; looking a command up builds that one only."""
+    from typer._click import Context
+    group = typer.main.get_command(app)
+    ctx = Context(group, info_name="ffrf-advisor")
+    text = group.get_help(ctx)
+    assert not group.commands._built and all(f"  {name} " in text for name in COMMANDS)
+    lines = {name: group.commands.short_help(name, 60) for name in COMMANDS}
+    assert group.get_command(ctx, "info").name == "info" and set(group.commands._built) == {"info"}
+    assert {name: group.get_command(ctx, name).get_short_help_str(60) for name in COMMANDS} == lines

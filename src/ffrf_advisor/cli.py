@@ -10,11 +10,13 @@ import inspect
 import sys
 import time
 import warnings
+from collections.abc import MutableMapping
 from pathlib import Path
 from typing import Annotated, Optional, get_args, get_origin
 
 import typer
 from typer._click.exceptions import NoArgsIsHelpError, UsageError  # typer vendors click (pinned)
+from typer._click.utils import make_default_short_help
 from typer.core import TyperArgument, TyperGroup
 
 from . import version_line
@@ -58,9 +60,59 @@ def run_analysis(body, options):
     return analyze(body, options)
 
 
+class LazyCommands(MutableMapping):
+    """The CLI's commands by name, each built by typer when first looked up: a run builds the command it
+    invokes, and the command list of --help comes from the docstrings (typer introspects a command's parameters
+    to build it: about 10 ms for all 16, before any option is parsed)."""
+
+    def __init__(self, infos: dict):
+        self._infos, self._built = infos, {}
+
+    def __getitem__(self, name: str):
+        if name not in self._built:
+            self._built[name] = typer.main.get_command_from_info(
+                self._infos[name], pretty_exceptions_short=app.pretty_exceptions_short,
+                rich_markup_mode=app.rich_markup_mode)
+        return self._built[name]
+
+    def __setitem__(self, name: str, command) -> None:
+        self._built[name] = command
+
+    def __delitem__(self, name: str) -> None:
+        self._infos.pop(name, None)
+        self._built.pop(name, None)
+
+    def __iter__(self):
+        return iter({**self._infos, **self._built})
+
+    def __len__(self) -> int:
+        return len({**self._infos, **self._built})
+
+    def short_help(self, name: str, limit: int) -> str:
+        """The command's line in the command list, as click shortens its help, without building it."""
+        if name in self._built:
+            return self._built[name].get_short_help_str(limit)
+        return make_default_short_help(inspect.getdoc(self._infos[name].callback) or "", limit)
+
+
 class OneLineUsage(TyperGroup):
     """Usage errors (unknown option, missing argument, bad value) as one line on stderr with exit 2, like every
-    other bad input; without arguments the help, on stderr, with exit 2."""
+    other bad input; without arguments the help, on stderr, with exit 2. Commands are built on first use
+    (LazyCommands)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.commands = LazyCommands(dict(COMMANDS))
+
+    def list_commands(self, ctx) -> list[str]:
+        return list(self.commands)
+
+    def format_commands(self, ctx, formatter) -> None:
+        names = self.list_commands(ctx)
+        if names:
+            limit = formatter.width - 6 - max(map(len, names))
+            with formatter.section("Commands"):
+                formatter.write_dl([(name, self.commands.short_help(name, limit)) for name in names])
 
     def main(self, *args, standalone_mode: bool = True, **kwargs):
         _plain_metavars(self)
@@ -769,3 +821,8 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
         verification_report(out(), data)
     if st.verification.verdict.verdict in FAILING[fail_on]:
         raise typer.Exit(1)
+
+
+# The commands above, built when looked up (LazyCommands) instead of all of them before parsing.
+COMMANDS = {info.name or typer.main.get_command_name(info.callback.__name__): info for info in app.registered_commands}
+app.registered_commands = []

@@ -1,6 +1,6 @@
-"""The compiled right-hand side on its compact storage (issue 24, item 6): the numpy reference equations
-(sim.equations) for every canonical term set at odd and even mode counts, the storage size, RK4 on the Lie
-group against a numpy RKMK4, and stages that allocate nothing."""
+"""The compiled right-hand side on its two storages of Sbar (issue 24, item 6): the numpy reference equations
+(sim.equations) for every canonical term set at odd and even mode counts, in strips and tall, the storage size,
+RK4 on the Lie group against a numpy RKMK4, and stages that allocate nothing."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -13,8 +13,9 @@ from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import box_mesh
 from ffrf_advisor.sim import equations as eq
 from ffrf_advisor.sim import kernels
+from ffrf_advisor.sim import model as model_module
 from ffrf_advisor.sim.integrate import Loads, Rhs, _compiled_model, integrate
-from ffrf_advisor.sim.model import build_model, compact_blocks, initial_state
+from ffrf_advisor.sim.model import build_model, compact_blocks, initial_state, product_blocks
 from ffrf_advisor.terms import FULL, IDS, LEVEL_SETS
 
 NF = (1, 3, 4, 13, 16, 17, 37)  # below, at and past a strip of 4 rows and a width step of 16; odd and even
@@ -51,8 +52,15 @@ def _assert_kernels_match_reference(model, rng):
         assert np.abs(got - ref).max() <= 1e-13 * np.abs(ref).max(), (model.terms, model.nf, prescribed)
 
 
+@pytest.fixture(params=["tall", "strips"])
+def layout(request, monkeypatch):
+    """Both storages of the Sbar blocks (sim.model): tall below TALL_MAX modes, strips above."""
+    monkeypatch.setattr(model_module, "TALL_MAX", 10**6 if request.param == "tall" else 0)
+    return request.param
+
+
 @pytest.mark.parametrize("nf", NF)
-def test_compact_kernels_equal_the_numpy_reference_for_every_canonical_set(block37, rng, nf):
+def test_compact_kernels_equal_the_numpy_reference_for_every_canonical_set(block37, rng, nf, layout):
     body = block37.first_modes(nf)
     A = rng.normal(size=(6, nf, nf))
     for terms in CANONICAL:
@@ -60,7 +68,7 @@ def test_compact_kernels_equal_the_numpy_reference_for_every_canonical_set(block
         _assert_kernels_match_reference(model, rng)
 
 
-def test_a_body_with_W3_but_no_Sbar_runs_its_W3_terms(block37, rng):
+def test_a_body_with_W3_but_no_Sbar_runs_its_W3_terms(block37, rng, layout):
     """Adams' I5 without I9 (theory 3b): the compact blocks then hold W3k / 2, whose skew parts are W3k."""
     ints = block37.integrals
     spin = ints.W3().reshape(3, block37.nf, block37.nf)
@@ -73,7 +81,7 @@ def test_compact_storage_is_about_four_and_a_half_nf_squared():
     """The diagonal blocks' upper halves and one block of each off-diagonal pair, against Sbar and W3k's
     12 nf^2 before (strips padded to widths of 16: 4.6 nf^2 at 200 modes)."""
     nf = 200
-    diag, off = compact_blocks(np.zeros((3, 3, nf, nf)))
+    diag, off = compact_blocks(*product_blocks(np.zeros((3, 3, nf, nf))))
     assert (diag.size + off.size) / nf**2 < 4.7
 
 

@@ -135,10 +135,10 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
 
 
 def _compiled_model(m: Model) -> tuple:
-    """The model as the compiled loops read it (``kernels.rhs_into``): the compact Sbar blocks (sim.model), with
-    its scratch workspace."""
+    """The model as the compiled loops read it (``kernels.rhs_into``): the Sbar blocks in strips or tall
+    (sim.model), with its scratch workspace."""
     from . import kernels
-    return (m.flags, m.I0, m.Ibar, m.diag, m.off, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf))
+    return (m.flags, m.I0, m.Ibar, m.diag, m.off, m.tall, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf))
 
 
 MIDPOINT_FAILURES = {1: REASONS[1], 2: REASONS[2], 3: "Newton iteration did not converge"}

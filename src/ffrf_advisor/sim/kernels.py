@@ -182,6 +182,37 @@ def _pair_products(off, y, nv, P):
 
 
 @inline
+def _four(x, t):
+    """x[t:t + 4], zeros past the end."""
+    n = x.shape[0]
+    return (x[t], x[t + 1] if t + 1 < n else 0.0, x[t + 2] if t + 2 < n else 0.0, x[t + 3] if t + 3 < n else 0.0)
+
+
+@inline
+def _tall_products(tall, y, nv, P):
+    """P[v] = every block product Sbar[a, b] x_v at once for x_0 = q, x_1 = q' (the first ``nv``):
+    ``P[v].ravel() = sum_t tall[t] x_v[t]`` (sim.model.tall_blocks), four rows of tall per pass of contiguous
+    multiply-adds of length 9 nf, each number read once for both vectors."""
+    nf, n = tall.shape
+    a0, a1 = P[0].reshape(n), P[1].reshape(n)
+    q, qd = y[N_ROT:N_ROT + nf], y[N_ROT + nf:N_ROT + 2 * nf]
+    a0[:] = 0.0
+    a1[:] = 0.0
+    for t in range(0, nf, 4):
+        r0, r1, r2, r3 = tall[t], tall[min(t + 1, nf - 1)], tall[min(t + 2, nf - 1)], tall[min(t + 3, nf - 1)]
+        p0, p1, p2, p3 = _four(q, t)
+        if nv == 1:
+            for j in range(n):
+                a0[j] += r0[j] * p0 + r1[j] * p1 + r2[j] * p2 + r3[j] * p3
+            continue
+        d0, d1, d2, d3 = _four(qd, t)
+        for j in range(n):
+            e0, e1, e2, e3 = r0[j], r1[j], r2[j], r3[j]
+            a0[j] += e0 * p0 + e1 * p1 + e2 * p2 + e3 * p3
+            a1[j] += e0 * d0 + e1 * d1 + e2 * d2 + e3 * d3
+
+
+@inline
 def _coupling_from_products(P, C):
     """C[k] = W3k[k]^T x = sum_ab eps_kab Sbar[a, b]^T x = sum_ab eps_kab P[b, a] with P[a, b] = Sbar[a, b] x:
     the rows of C(x) = Qf(x)^T W3 (theory 3), free once the block products of x are known."""
@@ -223,9 +254,9 @@ def _solve_schur(J, C, fr, ff, S, b, wd):
 
 @jit
 def rhs_into(y, out, model, tau, fext, prescribed, wp, wdp):
-    """dy/dt of ``y = [p, w, q, q']`` into ``out`` (theory 5); ``model`` = (flags, I0, Ibar, diag, off, lam, dmp,
-    G, workspace) as sim.integrate._compiled_model packs it; with ``prescribed`` w = wp and w' = wdp are given."""
-    flags, I0, Ibar, diag, off, lam, dmp, G, work = model
+    """dy/dt of ``y = [p, w, q, q']`` into ``out`` (theory 5); ``model`` = (flags, I0, Ibar, diag, off, tall, lam,
+    dmp, G, workspace) as sim.integrate._compiled_model packs it; with ``prescribed`` w = wp and w' = wdp are given."""
+    flags, I0, Ibar, diag, off, tall, lam, dmp, G, work = model
     nf = lam.shape[0]
     q = y[7:7 + nf]
     qd = y[7 + nf:7 + 2 * nf]
@@ -248,9 +279,11 @@ def rhs_into(y, out, model, tau, fext, prescribed, wp, wdp):
         _add_centrifugal(Ibar, w, ff)
     w2 = flags[INERTIA_QUAD] or flags[CF2] or flags[COR_QUAD]
     w3 = flags[COUPLING] or flags[COR_COUPLING]
-    if w2:
-        _symmetric_products(diag, q, P[0])
-    if w2 or w3:
+    if (w2 or w3) and tall.shape[0] > 0:
+        _tall_products(tall, y, 2 if flags[COR_COUPLING] else 1, P)
+    elif w2 or w3:
+        if w2:
+            _symmetric_products(diag, q, P[0])
         _pair_products(off, y, 2 if flags[COR_COUPLING] else 1, P)
     if flags[INERTIA_QUAD]:
         _add_quadratic_inertia(P[0], q, 0.5, Gq, J)

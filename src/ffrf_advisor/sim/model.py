@@ -17,7 +17,12 @@ symmetric diagonal blocks ``Sbar[k, k]`` (``diag``) and one block of each
 off-diagonal pair, ``off[k] = Sbar[a, b]`` for the cyclic ``(k, a, b)``
 (``Sbar[b, a] = Sbar[a, b]^T``), whose skew part is ``W3k[k]``; each
 stored in strips of STRIP rows (``strips``), so that one pass over a
-strip gives both a block's product and its transpose's.
+strip gives both a block's product and its transpose's. Up to TALL_MAX
+modes, where the strips' rows are too short to vectorise and all blocks
+fit in the L1/L2 cache anyway, the kernels take the nine products at once
+from ``tall`` instead: ``tall[t]`` holds column t of every block, so
+``P.ravel() = sum_t tall[t] x[t]`` is nf contiguous multiply-adds of length
+9 nf (9 nf^2 numbers, read once for q and q' together).
 """
 from __future__ import annotations
 
@@ -32,6 +37,8 @@ from ..terms import IDS, is_lagrangian, needed_invariants, ordered
 N_ROT = 7  # quaternion (4) and angular velocity (3) lead the state vector
 STRIP = 4  # rows per strip of the kernels' block storage (kernels._dot4_axpy reads four rows at once)
 WIDTH_STEP = 16  # strip widths in multiples of this where free: a vector loop body (4 x 4 doubles on AVX2)
+TALL_MAX = 48  # modes up to which the kernels use ``tall``: its 72 nf^2 bytes fit a 256 KiB L2 cache (on a 1 MiB
+              # L2 it was 0.63-0.78x the strips' time from 16 to 64 modes, 1.0x at 80, 1.13x at 100)
 MAX_DAMPING = 10.0  # modal damping ratios above make the modes stiff beyond any integrator's budget
 
 
@@ -54,6 +61,7 @@ class Model:
     G: np.ndarray         # (6, nf, nf), zeros without geo_stiff
     diag: np.ndarray      # (3, ~nf^2 / 2): strips of the upper halves of Sbar[k, k]; zeros without W2 terms
     off: np.ndarray       # (3, ~nf^2): strips of Sbar[a, b] for cyclic (k, a, b), of W3k / 2 with W3 alone
+    tall: np.ndarray      # (nf, 9 nf): the same blocks column by column for nf <= TALL_MAX, else (0, 0)
 
     @property
     def nf(self) -> int:
@@ -90,22 +98,40 @@ def build_model(body: FlexibleBody, terms, damping=0.0, G: np.ndarray | None = N
     need_w3 = any(t in terms for t in ("coupling", "cor_coupling"))
     Sbar = np.array(ints.Sbar) if need_w2 else np.zeros((3, 3, nf, nf))
     W3k = ints.W3().reshape(3, nf, nf) if need_w3 else np.zeros((3, nf, nf))
-    diag, off = compact_blocks(Sbar, 0.5 * W3k if need_w3 and not need_w2 else None)
+    blocks = product_blocks(Sbar, 0.5 * W3k if need_w3 and not need_w2 else None)
+    small = nf <= TALL_MAX
+    diag, off = (np.zeros((3, 0)), np.zeros((3, 0))) if small else compact_blocks(*blocks)
     return Model(terms=terms, I0=np.array(body.I0), Ibar=np.array(ints.Ibar), Sbar=np.ascontiguousarray(Sbar),
                  W3k=np.ascontiguousarray(W3k), eigenvalues=np.array(body.eigenvalues),
                  damping=2 * zeta * np.sqrt(np.abs(body.eigenvalues)),
                  G=np.zeros((6, nf, nf)) if G is None else np.ascontiguousarray(G, dtype=float),
-                 diag=diag, off=off)
+                 diag=diag, off=off, tall=tall_blocks(*blocks) if small else np.zeros((0, 0)))
 
 
-def compact_blocks(Sbar: np.ndarray, skew: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """(diag, off) of Model from Sbar (3, 3, nf, nf), each block the mean of its pair (Sbar[b, a]^T and
-    Sbar[a, b]); ``skew`` (3, nf, nf) replaces the off-diagonal blocks when only their skew parts W3k count
-    (a body may carry W3 without Sbar)."""
-    pair = [0.5 * (Sbar[(k + 1) % 3, (k + 2) % 3] + Sbar[(k + 2) % 3, (k + 1) % 3].T) for k in range(3)]
-    off = pair if skew is None else skew
-    return (np.stack([strips(0.5 * (Sbar[k, k] + Sbar[k, k].T), upper=True) for k in range(3)]),
-            np.stack([strips(B, upper=False) for B in off]))
+def product_blocks(Sbar: np.ndarray, skew: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(D, B), each (3, nf, nf): the symmetric diagonal blocks ``D[k] = Sbar[k, k]`` and ``B[k] = Sbar[a, b]``
+    for the cyclic (k, a, b), each the mean of its pair (Sbar[b, a]^T and Sbar[a, b]); ``skew`` (3, nf, nf)
+    replaces B when only its skew parts W3k count (a body may carry W3 without Sbar)."""
+    D = np.stack([0.5 * (Sbar[k, k] + Sbar[k, k].T) for k in range(3)])
+    B = np.stack([0.5 * (Sbar[(k + 1) % 3, (k + 2) % 3] + Sbar[(k + 2) % 3, (k + 1) % 3].T) for k in range(3)])
+    return D, B if skew is None else skew
+
+
+def compact_blocks(D: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(diag, off) of Model: the upper halves of D and the blocks B (``product_blocks``) in strips."""
+    return np.stack([strips(d, upper=True) for d in D]), np.stack([strips(b, upper=False) for b in B])
+
+
+def tall_blocks(D: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``tall`` of Model, (nf, 9 nf): ``tall[t, (3 a + b) nf + r]`` = entry (r, t) of the block whose product
+    with x is ``P[a, b] = Sbar[a, b] x``: D[k] at (k, k), B[k] at (a, b) and B[k]^T at (b, a) for the cyclic
+    (k, a, b)."""
+    nf = D.shape[1]
+    full = np.zeros((3, 3, nf, nf))
+    for k in range(3):
+        a, b = (k + 1) % 3, (k + 2) % 3
+        full[k, k], full[a, b], full[b, a] = D[k], B[k], B[k].T
+    return np.ascontiguousarray(full.reshape(9 * nf, nf).T)
 
 
 def strip_start(r: int, nf: int, upper: bool) -> int:

@@ -460,3 +460,18 @@ def test_energy_and_momentum_of_a_stack_of_states_equal_those_of_each(bodies):
     assert np.allclose(eq.energy(model, ys), [eq.energy(model, y) for y in ys], rtol=1e-13, atol=0)
     assert np.allclose(eq.angular_momentum(model, ys), [eq.angular_momentum(model, y) for y in ys], rtol=1e-13,
                        atol=0)
+
+
+@pytest.mark.parametrize("nf", [1, 10, 48, 49, 200])
+def test_the_cost_model_never_makes_a_set_cheaper_by_adding_a_term(nf):
+    """sim.cost counts the kernels' loops in both storages (the tall one up to TALL_MAX = 48 modes, the strips
+    above): a term added to any set adds its own work, so no superset may be cheaper; and cost_ratio is that
+    quotient."""
+    from ffrf_advisor.sim.cost import cost_ratio, rhs_cost
+
+    rng = np.random.default_rng(nf)
+    for _ in range(200):
+        terms = {"gyro0", *(t for t in IDS if rng.random() < 0.5)}
+        extra = rng.choice([t for t in IDS if t not in terms]) if len(terms) < len(IDS) else "gyro0"
+        assert rhs_cost(terms | {extra}, nf) > rhs_cost(terms, nf) or extra in terms
+        assert cost_ratio(terms | {extra}, terms, nf) == rhs_cost(terms | {extra}, nf) / rhs_cost(terms, nf)

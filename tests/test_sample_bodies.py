@@ -5,6 +5,7 @@ import json
 import math
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 from typer.testing import CliRunner
@@ -39,6 +40,22 @@ def test_all_six_are_shipped_small_and_complete(shipped):
         assert body.nf == 16 and str(body.units) == "t-mm-N-s", name
         assert body.sigma_max is not None and body.fe.stress_nodal.shape == (body.fe.mesh.n_nodes, 16), name
         assert body.provenance.mass_matrix == "consistent", name
+
+
+def test_each_sample_caches_what_the_advice_needs(shipped):
+    """The README's first command analyses a shipped body: its invariants and nodal summary are cached (read
+    without the nodal data, as analyze reads them) and equal what the nodal data give (the `shipped` fixture
+    reads those, and the reader refuses a cache that disagrees with them beyond round-off)."""
+    for name, body in shipped.items():
+        with h5py.File(DIR / f"{name}.ffrf.h5", "r") as f:
+            assert {"invariants", "nodal_summary"} <= set(f), f"{name}: rewrite it with `ffrf-advisor convert`"
+        cached = read_body(DIR / f"{name}.ffrf.h5", load_fe="summary")
+        assert cached.fe is None and cached.nodal is not None, name
+        fe = body.nodal_summary()
+        assert np.allclose(cached.nodal.max_deflection, fe.max_deflection, rtol=1e-12, atol=0), name
+        assert cached.nodal.largest_dimension == fe.largest_dimension and cached.nodal.n_nodes == fe.n_nodes, name
+        assert np.allclose(cached.integrals.Sbar, body.integrals.Sbar, rtol=0, atol=1e-12 * np.abs(
+            body.integrals.Sbar).max()), name
 
 
 def test_levels_at_moderate_speed_free_and_stiff(shipped):

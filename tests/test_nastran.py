@@ -452,3 +452,28 @@ def test_an_op2_without_geometry_takes_it_from_the_input_deck_beside_it(tmp_path
     deck.unlink()
     result = runner.invoke(app, ["info", str(path)])
     assert result.exit_code == 2 and "or an input deck beside it" in result.output
+
+
+def test_a_deck_read_beside_an_op2_writes_no_file_where_the_tool_runs(tmp_path, monkeypatch):
+    """pyNastran's read_bdf dumps the deck into the working directory: pyNastran_crash.bdf on a missing INCLUDE,
+    pyNastran_dump.bdf when the deck says ``$pyNastran: dumplines=True``. The reader writes neither, and a file
+    of that name there stays as it was."""
+    body = replace(read_body(SAMPLE, load_fe=True), geometric=None, static_centrifugal=None)
+    (tmp_path / "job").mkdir()
+    path, deck = tmp_path / "job" / "beam.op2", tmp_path / "job" / "beam.bdf"
+    _sample_op2(body, path, deck=deck)
+    full = "SOL 103\nCEND\n" + deck.read_text()
+    deck.write_text(full.replace("BEGIN BULK\n", "BEGIN BULK\nINCLUDE 'geom.inc'\n"))
+    monkeypatch.chdir(tmp_path)
+    for mine in (None, b"the user's own file\n"):
+        if mine is not None:
+            (tmp_path / "pyNastran_crash.bdf").write_bytes(mine)
+        before = sorted(tmp_path.rglob("*"))
+        result = runner.invoke(app, ["info", str(path)])
+        assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1
+        assert "beam.bdf: file: expected an input deck pyNastran can read with its INCLUDE files" in result.output
+        assert sorted(tmp_path.rglob("*")) == before
+    assert (tmp_path / "pyNastran_crash.bdf").read_bytes() == mine
+    deck.write_text("$pyNastran: dumplines=True\n" + full)
+    assert np.allclose(read_body(path).I0, body.I0, rtol=1e-6)
+    assert sorted(tmp_path.rglob("*")) == before

@@ -121,6 +121,22 @@ def test_rk4_lie_equals_a_numpy_rkmk4(block37, rng, nf):
     assert np.abs(run.y[-1] - ref).max() <= 1e-12 * np.abs(ref).max()
 
 
+@pytest.mark.parametrize("nf", (16, 37))
+def test_classical_rk4_equals_its_python_reference(block37, rng, nf):
+    """The compiled classical RK4 (quaternion normalised after the step) against integrate's Python loop
+    (_rk4_step over the same right-hand side): the same states stage for stage (1e-12), and past the explicit
+    limit the same failing step and reason."""
+    from ffrf_advisor.sim.integrate import _fixed_python
+    model = build_model(block37.first_modes(nf), FULL)
+    y0 = _state(rng, model)
+    run = integrate(model, y0, 20e-5, "rk4", 1e-5, output_step=5e-5)
+    ref = _fixed_python(model, y0, 1e-5, 20, 5, "rk4", Loads(), None)
+    assert np.abs(run.y - ref.y).max() <= 1e-12 * np.abs(ref.y).max()
+    h = 4 * 2 * np.sqrt(2) / np.sqrt(model.eigenvalues.max())  # four times the RK4 limit: the state overflows
+    run, ref = integrate(model, y0, 2000 * h, "rk4", h), _fixed_python(model, y0, h, 2000, 1, "rk4", Loads(), None)
+    assert run.failed and ref.failed and (run.steps, run.reason) == (ref.steps, ref.reason)
+
+
 def test_rk4_lie_stages_allocate_nothing(block37):
     """Numba's allocation count of rk4_loop is the same for 1 and 50 steps (it was 14 per step)."""
     nrt = pytest.importorskip("numba.core.runtime._nrt_python")

@@ -355,6 +355,25 @@ def rhs_loaded(t, y, out, model, prog, fext, scratch):
     rhs_into(y, out, model, tau, fext, prog[8] != 0.0, w, wd)
 
 
+@jit
+def jacobian_into(y, h, J, model):
+    """``J[:, j] = (f(y + h_j e) - f(y - h_j e)) / (2 h_j)``, e the unit vector of entry N_ROT - 3 + j: the
+    central-difference Jacobian of the rates of (w, q, q') of a free body without loads at the state y (its
+    quaternion does not enter them), with linearise.jacobian's steps ``h``."""
+    n = y.shape[0]
+    m = n - 4
+    zero3, zf = np.zeros(3), np.zeros((n - N_ROT) // 2)
+    x, up, down = y.copy(), np.empty(n), np.empty(n)
+    for j in range(m):
+        x[4 + j] = y[4 + j] + h[j]
+        rhs_into(x, up, model, zero3, zf, False, zero3, zero3)
+        x[4 + j] = y[4 + j] - h[j]
+        rhs_into(x, down, model, zero3, zf, False, zero3, zero3)
+        x[4 + j] = y[4 + j]
+        for i in range(m):
+            J[i, j] = (up[4 + i] - down[4 + i]) / (2.0 * h[j])
+
+
 @inline
 def _rotate_by(p, theta, out):
     """out[0:4] = p[0:4] * exp(theta): the body turned by the rotation vector theta (body frame); out may be p."""

@@ -13,7 +13,7 @@ import numpy as np
 from ..analysis import Analysis
 from ..response import frequency_change
 from ..sim.equations import energy
-from ..sim.linearise import campbell, campbell_speeds
+from ..sim.linearise import campbell, campbell_speeds, compiled_jacobian
 from ..sim.model import build_model
 from ..terms import FULL, LEVEL_SETS
 from ..units import TIME
@@ -49,8 +49,10 @@ def campbell_data(a: Analysis, speed: float, axis: int | None = None) -> dict:
     sets = {ts.label: ts.terms for ts in term_sets(a) if ts.label in CAMPBELL_SETS}
     branches = {}  # per (terms, axis): sets with the same terms (the advised set and IV, say) computed once
     for terms in dict.fromkeys(sets.values()):
+        model = build_model(a.body, terms)
+        jac = compiled_jacobian(model)  # verify runs the compiled simulator anyway
         for k in range(3):
-            branches[terms, k] = campbell(build_model(a.body, terms), np.eye(3)[k], speeds[k])
+            branches[terms, k] = campbell(model, np.eye(3)[k], speeds[k], jac)
     by_axis = {k: {label: branches[terms, k].frequencies for label, terms in sets.items()} for k in range(3)}
     gaps = {k: {label: branches[terms, k].gaps.tolist() for label, terms in sets.items()} for k in range(3)}
     axis = deformation_axis(a) if axis is None else axis

@@ -81,11 +81,14 @@ def _initial_step(t0, y0, f0, t_end, rtol, atol, model, prog, fext, scratch, y1,
 @jit
 def _combine(coefficients, K, count, acc):
     """acc = sum_{j < count} coefficients[j] K[j], term by term in j (a contiguous multiply-add per stage, so the
-    compiler vectorises over the state; the sum's order is the tableau's)."""
+    compiler vectorises over the state; the sum's order is the tableau's). A zero coefficient adds nothing to
+    finite stages and is skipped (29 % of the tableau's products; a non-finite stage fails the step anyway)."""
     for i in range(acc.shape[0]):
         acc[i] = 0.0
     for j in range(count):
         c, Kj = coefficients[j], K[j]
+        if c == 0.0:
+            continue
         for i in range(acc.shape[0]):
             acc[i] += c * Kj[i]
 
@@ -118,11 +121,11 @@ def _error_norm(K, h, scale, a5, a3):
 
 
 @jit
-def _sample(t_old, h, y_old, y_new, K, DK, t_out, y_out):
-    """The order-7 interpolant of the step at t_out (K holds the 16 stages, DK[r] = sum_s D[r, s] K[s])."""
+def _sample(t_old, h, y_old, y_new, K, DK, t_out, y_out, F):
+    """The order-7 interpolant of the step at t_out (K holds the 16 stages, DK[r] = sum_s D[r, s] K[s]; F:
+    workspace of 7)."""
     n = y_old.shape[0]
     x = (t_out - t_old) / h
-    F = np.empty(7)
     for i in range(n):
         dy = y_new[i] - y_old[i]
         F[0] = dy
@@ -146,7 +149,7 @@ def integrate_dop853(y0, t_end, rtol, atol, t_out, budget, out, model, prog, fex
     n = y0.shape[0]
     scratch = (np.empty(3), np.empty(3), np.empty(3))
     K, DK = np.empty((16, n)), np.empty((4, n))
-    ys, y_new, tmp, a5, a3 = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    ys, y_new, tmp, a5, a3, F = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(7)
     y = y0.copy()
     t = 0.0
     _f(t, y, K[0], model, prog, fext, scratch)
@@ -188,7 +191,7 @@ def integrate_dop853(y0, t_end, rtol, atol, t_out, budget, out, model, prog, fex
             for r in range(4):
                 _combine(D[r], K, 16, DK[r])
             while row < t_out.shape[0] and t_out[row] <= t_new:
-                _sample(t_old, h_step, y, y_new, K, DK, t_out[row], out[row])
+                _sample(t_old, h_step, y, y_new, K, DK, t_out[row], out[row], F)
                 row += 1
         for i in range(n):
             y[i] = y_new[i]

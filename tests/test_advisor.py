@@ -300,3 +300,21 @@ def test_a_speed_at_which_the_body_yields_is_named(rules):
     assert yielding(0.99 * w_yield) == [] and len(yielding(1.01 * w_yield)) == 1
     assert "is 102.01% of sigma_allow" in yielding(1.01 * w_yield)[0]  # (1.01)^2
     assert yielding(1.01 * w_yield)[0].endswith("sigma_allow = 500 N/mm^2")
+
+
+def test_the_coriolis_parts_of_every_mode_pair_are_coriolis_terms_of_that_pair():
+    """significance._coriolis_parts (all pairs at once from the invariants' blocks) against coriolis_terms of
+    each pair's state (the definition of theory section 5), on a sample whose invariants are all non-zero: equal
+    to round-off (1e-13 of the largest)."""
+    from ffrf_advisor.significance import _coriolis_parts
+    body = read_body(Path(__file__).resolve().parent.parent / "sample_bodies" / "genstruct1.ffrf.h5")
+    rng = np.random.default_rng(3)
+    q_max, w, n = rng.uniform(0.5, 2.0, body.nf) * 1e-3, rng.normal(size=3), 7
+    B, D = _coriolis_parts(body, q_max, n, w)
+    om = np.sqrt(body.eigenvalues)
+    for p in range(n):
+        for r in range(n):
+            q, qd = np.eye(body.nf)[p] * q_max[p], np.eye(body.nf)[r] * om[r] * q_max[r]
+            dep, lin = coriolis_terms(body, q, qd, w)
+            assert np.abs(B[:, p, r] - dep).max() <= 1e-13 * np.abs(B).max()
+            assert np.abs(D[:, r] - lin).max() <= 1e-13 * np.abs(D).max()

@@ -141,16 +141,19 @@ def sign_patterns(n: int) -> np.ndarray:
 
 def _coriolis_parts(body: FlexibleBody, q_max: np.ndarray, n: int, w: np.ndarray):
     """B[:, p, r]: deformation-dependent Coriolis of mode p deflected and mode r moving; D[:, r]: W1 Qf' w of
-    mode r moving (both bilinear or linear in the modes, so any sign pattern is a sum of them)."""
-    om = np.sqrt(body.eigenvalues)
-    B, D = np.zeros((3, n, n)), np.zeros((3, n))
-    for r in range(n):
-        qd = np.zeros(body.nf)
-        qd[r] = om[r] * q_max[r]
-        for p in range(n):
-            q = np.zeros(body.nf)
-            q[p] = q_max[p]
-            B[:, p, r], D[:, r] = coriolis_terms(body, q, qd, w)
+    mode r moving (both bilinear or linear in the modes, so any sign pattern is a sum of them). ``coriolis_terms``
+    of q = a_p e_p, q' = b_r e_r (a = q_max, b = Omega q_max) for every pair at once: with the blocks
+    W2[k, i, l, j] (rows k nf + i), W3[k, i, j] and W1[k, l, j],
+    ``B[k, p, r] = -a_p b_r (sum_l (W2[k, r, l, p] + W2[k, p, l, r]) w_l + (w x W3[:, p, r])_k)``,
+    ``D[k, r] = b_r sum_l W1[k, l, r] w_l``."""
+    nf = body.nf
+    a = q_max[:n]
+    b = np.sqrt(body.eigenvalues[:n]) * a
+    W2 = body.W2.reshape(3, nf, 3, nf)[:, :n, :, :n]
+    W3 = body.W3.reshape(3, nf, nf)[:, :n, :n]
+    sym = np.einsum("krlp,l->kpr", W2, w) + np.einsum("kplr,l->kpr", W2, w)
+    B = -(sym + np.cross(w, W3, axisb=0, axisc=0)) * np.outer(a, b)
+    D = np.einsum("klr,l->kr", body.W1.reshape(3, 3, nf)[:, :, :n], w) * b
     return B, D
 
 

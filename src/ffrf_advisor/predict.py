@@ -54,7 +54,7 @@ import numpy as np
 from .body import FlexibleBody
 from .sim import equations as eq
 from .sim.cost import rhs_cost
-from .sim.linearise import modal_spectrum, static_deflection
+from .sim.linearise import modal_spectrum
 from .sim.model import Model, build_model
 from .terms import FULL, GROUPS, LEVEL_SETS, is_lagrangian, lagrangian_superset, ordered
 
@@ -314,9 +314,7 @@ def modal_amplitude(excitation: str, q_max: np.ndarray, q_static: np.ndarray) ->
 
 def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff, excitation) -> np.ndarray:
     """(sets, KINDS) predictions at one spin s about one axis a."""
-    w = s * a
-    f_ref, V_ref, _ = modal_spectrum(ref, a, s)
-    q_ref = static_deflection(ref, w)
+    f_ref, V_ref, q_ref = modal_spectrum(ref, a, s)
     amplitude = modal_amplitude(excitation, q_max, q_ref)
     mix = mixing(body, a, s, q_max, sigma_allow, amplitude)
     widening = exact_widening(body, a, s)
@@ -324,10 +322,10 @@ def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff, excitat
     for i, (model, (_, terms)) in enumerate(zip(models, sets)):
         if set(terms) == set(ref.terms):
             continue
-        f, V, _ = modal_spectrum(model, a, s)
+        f, V, q = modal_spectrum(model, a, s)
         out[i] = (_matched_error(f_ref, V_ref, f, V),
                   0.0 if model.on("cor_coupling") or not ref.on("cor_coupling") else mix,
-                  static_error(body, static_deflection(model, w), q_ref, q_max, sigma_allow,
+                  static_error(body, q, q_ref, q_max, sigma_allow,
                                widening if ref.on("cf1") and not model.on("cf1") else 0.0),
                   0.0 if stiff else rigid_error(ref, model, q_ref, amplitude, s))
     return out

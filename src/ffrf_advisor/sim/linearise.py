@@ -113,11 +113,12 @@ def linearise(model: Model, axis, s: float) -> Linearisation:
     return _linearised(model, axis, s)[0]
 
 
-def modal_spectrum(model: Model, axis, s: float) -> tuple[np.ndarray, np.ndarray, bool]:
-    """(frequencies [1/time], their mode shapes: the q parts of the eigenvectors as columns (nf, n), unstable)
-    of the modes' oscillations at steady spin ``s`` about ``axis``, in ascending frequency."""
+def modal_spectrum(model: Model, axis, s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(frequencies [1/time], their mode shapes: the q parts of the eigenvectors as columns (nf, n), the static
+    deflection linearised about) of the modes' oscillations at steady spin ``s`` about ``axis``, in ascending
+    frequency."""
     lin, shapes, _ = _linearised(model, axis, s)
-    return lin.frequencies, shapes, lin.unstable
+    return lin.frequencies, shapes, lin.q
 
 
 def _linearised(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[Linearisation, np.ndarray, np.ndarray]:

@@ -51,9 +51,16 @@ def _declare(f, name, shape):
 
 
 def test_a_declared_huge_dataset_is_refused_before_it_is_read(tmp_path):
-    points = _edited_beam(tmp_path, "points.ffrf.h5", lambda f: _declare(f, "mesh/points", (10**9, 3)))
+    """Where the nodal data are read (here: analyze of a file without its nodal summary, which streams them) a
+    huge declared dataset is refused before any of it is read; a file with the summary cache is analysed
+    without reading them at all (issue 24, item 3)."""
+    points = _edited_beam(tmp_path, "points.ffrf.h5",
+                          lambda f: (_declare(f, "mesh/points", (10**9, 3)), f.__delitem__("nodal_summary")))
     _one_line_exit_2(["analyze", points, "--speed", "300rad/s", "--connection", "stiff"], "mesh/points",
                      "memory limit of 8 GiB", "22.4 GiB declared")
+    cached = _edited_beam(tmp_path, "cached.ffrf.h5", lambda f: _declare(f, "mesh/points", (10**9, 3)))
+    assert runner.invoke(app, ["analyze", str(cached), "--speed", "300rad/s"]).exit_code == 0
+    _one_line_exit_2(["convert", cached, tmp_path / "out.ffrf.h5"], "mesh/points", "22.4 GiB declared")
     modes = _edited_beam(tmp_path, "modes.ffrf.h5", lambda f: _declare(f, "modes/eigenvalues", (10**9,)))
     _one_line_exit_2(["info", modes], "modes/eigenvalues", "as many modes as stress/max has (16)")
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..names import ADAPTIVE, FIXED, INTEGRATORS  # noqa: F401 (defined in names: the CLI's help lists them)
 from .loads import Loads
-from .model import N_ROT, Model
+from .model import Model
 
 SCIPY_NAMES = {"dop853": "DOP853", "scipy-dop853": "DOP853", "rk45": "RK45", "radau": "Radau", "bdf": "BDF",
                "lsoda": "LSODA"}
@@ -217,8 +217,7 @@ class _MidpointStepper:
 
     @staticmethod
     def _inverse(f, t, y, h, f0):
-        """``(1 - h/2 J_ZZ - h^2/4 J_Zq)^-1`` on the unknowns Z = (p, w, q') (sim.midpoint), J the
-        forward-difference Jacobian of f at (t + h/2, y)."""
+        """``(1 - h/2 J)^-1``, J the forward-difference Jacobian of f at (t + h/2, y)."""
         from .midpoint import FD_STEP
         n = len(y)
         J = np.empty((n, n))
@@ -227,25 +226,19 @@ class _MidpointStepper:
             yj = y.copy()
             yj[j] += d
             J[:, j] = (f(t + h / 2, yj) - f0) / d
-        Z, q = _midpoint_unknowns(n)
-        M = -(h * h / 4) * np.hstack([np.zeros((len(Z), N_ROT)), J[np.ix_(Z, q)]]) - h / 2 * J[np.ix_(Z, Z)]
-        return np.linalg.inv(np.eye(len(Z)) + M)
+        return np.linalg.inv(np.eye(n) - h / 2 * J)
 
     def _newton(self, f, t, y, h, f0, kept):
-        """(Y, failure reason, largest ratio of successive corrections) from the Euler predictor, Q following Q'
-        (sim.midpoint); ``kept``: a growing correction ends the iteration (the inverse is from an earlier step)."""
+        """(Y, failure reason, largest ratio of successive corrections) from the Euler predictor; ``kept``: a
+        growing correction ends the iteration (the inverse is from an earlier step)."""
         from .midpoint import NEWTON_MAX, NEWTON_TOL
-        Z, q = _midpoint_unknowns(len(y))
-        v = Z[N_ROT:]
         Y, theta, last = y + h * f0, 0.0, np.inf
-        Y[q] = y[q] + h / 2 * (y[v] + Y[v])
         for it in range(NEWTON_MAX):
-            dZ = self.inverse @ (Y - y - h * f(t + h / 2, (y + Y) / 2))[Z]
-            Y[Z] -= dZ
-            Y[q] = y[q] + h / 2 * (y[v] + Y[v])
+            dY = self.inverse @ (Y - y - h * f(t + h / 2, (y + Y) / 2))
+            Y = Y - dY
             if not np.all(np.isfinite(Y)):
                 return Y, REASONS[1], theta
-            dn = np.sqrt(dZ @ dZ + (h / 2) ** 2 * dZ[N_ROT:] @ dZ[N_ROT:])
+            dn = np.linalg.norm(dY)
             if it > 0:
                 theta = max(theta, dn / last)
                 if kept and dn >= last:
@@ -254,12 +247,6 @@ class _MidpointStepper:
             if dn <= NEWTON_TOL * (1 + np.linalg.norm(Y)):
                 return Y, _state_failure(Y, np.linalg.norm(Y[:4])), theta
         return Y, MIDPOINT_FAILURES[3], theta
-
-
-def _midpoint_unknowns(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """(indices of the midpoint rule's Newton unknowns Z = (p, w, q'), indices of q) in a state of n entries."""
-    nf = (n - N_ROT) // 2
-    return np.r_[0:N_ROT, N_ROT + nf:n], np.arange(N_ROT, N_ROT + nf)
 
 
 def _output_times(t_end: float, output_step: float) -> np.ndarray:

@@ -3,7 +3,8 @@
 Prints
   1. per right-hand side inside the compiled integrators (DOP853 at verify's reference tolerance, the
      implicit midpoint rule) over the compiled right-hand side alone, called in a compiled loop
-     (target: at most 1.5x);
+     (target: at most 1.5x); beside it the same calls chained, each on the last one's result as in an
+     integrator (independent calls overlap in the processor: the chain is the floor an integrator can reach);
   2. `verify` of the shipped beam with the default scenes as a process, with the compiled integrators and
      with the former path (scipy's DOP853 calling the right-hand side from Python, the Python midpoint
      rule with a Jacobian taken at every step: `sim.loads.Loads.compiled` patched to refuse,
@@ -59,6 +60,16 @@ def _rhs_loop(y, out, n, model, zero3, zf):
         kernels.rhs_into(y, out, model, zero3, zf, False, zero3, zero3)
 
 
+@nb.njit
+def _rhs_chain(y, out, n, model, zero3, zf):
+    """As ``_rhs_loop``, each call reading the last one's result (as every stage of an integrator does; the
+    update, 1e-300 of it, changes no state entry): the processor cannot overlap successive calls."""
+    for _ in range(n):
+        kernels.rhs_into(y, out, model, zero3, zf, False, zero3, zero3)
+        for i in range(4, y.shape[0]):
+            y[i] += 1e-300 * out[i]
+
+
 def best(fn, repeat: int) -> float:
     times = []
     for _ in range(repeat):
@@ -73,12 +84,13 @@ def beam_state(m) -> np.ndarray:
     return initial_state(m, (0.0, 0.0, 300.0), np.full(m.nf, 0.05))
 
 
-def rhs_alone(m, repeat: int, n: int = 20000) -> float:
-    """Seconds per call of the compiled right-hand side of ``m`` at ``beam_state``, in a compiled loop (minimum)."""
+def rhs_alone(m, repeat: int, n: int = 20000, loop=_rhs_loop) -> float:
+    """Seconds per call of the compiled right-hand side of ``m`` at ``beam_state``, in a compiled loop (minimum;
+    ``loop``: ``_rhs_loop`` or ``_rhs_chain``)."""
     y0 = beam_state(m)
     out, args = np.empty_like(y0), (_compiled_model(m), np.zeros(3), np.zeros(m.nf))
-    _rhs_loop(y0, out, 1, *args)
-    return best(lambda: _rhs_loop(y0, out, n, *args), repeat) / n
+    loop(y0.copy(), out, 1, *args)
+    return best(lambda: loop(y0.copy(), out, n, *args), repeat) / n
 
 
 def per_evaluation(repeat: int) -> None:
@@ -90,15 +102,17 @@ def per_evaluation(repeat: int) -> None:
     runs = {"dop853 (rtol 1e-10)": lambda: integrate(m, y0, 0.02, "dop853", rtol=1e-10, atol=1e-14),
             "midpoint (h = 1e-5)": lambda: integrate(m, y0, 2e-3, "midpoint", 1e-5)}
     nfev = {name: run().nfev for name, run in runs.items()}
-    alone, per = np.inf, dict.fromkeys(runs, np.inf)
+    alone = chain = np.inf
+    per = dict.fromkeys(runs, np.inf)
     for _ in range(repeat):
-        alone = min(alone, rhs_alone(m, 1))
+        alone, chain = min(alone, rhs_alone(m, 1)), min(chain, rhs_alone(m, 1, loop=_rhs_chain))
         for name, run in runs.items():
             per[name] = min(per[name], best(run, 1) / nfev[name])
-    print(f"compiled right-hand side alone (beam, {body.nf} modes, full set): {alone * 1e6:.2f} us")
+    print(f"compiled right-hand side alone (beam, {body.nf} modes, full set): {alone * 1e6:.2f} us; each call on the "
+          f"last one's result, as in an integrator: {chain * 1e6:.2f} us")
     for name, t in per.items():
         print(f"  {name}: {t * 1e6:.2f} us per evaluation, {t / alone:.2f}x the right-hand side alone (target "
-              f"<= 1.5)")
+              f"<= 1.5), {t / chain:.2f}x the chained calls")
 
 
 def timed(cmd: list[str], repeat: int) -> float:

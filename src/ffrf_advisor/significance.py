@@ -109,7 +109,8 @@ def _wI(w: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def coriolis_terms(body: FlexibleBody, q: np.ndarray, qd: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(deformation-dependent rotational Coriolis, W1 Qf' w) of theory section 5 (verified form)."""
+    """(deformation-dependent rotational Coriolis, W1 Qf' w) of theory section 5 (verified form) at one state:
+    the definition that ``_coriolis_parts`` evaluates for all mode pairs at once (the tests hold it to this)."""
     Q, Qd = Qf(q), Qf(qd)
     W2 = body.W2
     dependent = -(Qd.T @ W2 @ Q + Q.T @ W2 @ Qd) @ w - np.cross(w, Q.T @ body.W3 @ qd)

@@ -357,9 +357,9 @@ def rhs_loaded(t, y, out, model, prog, fext, scratch):
 
 @jit
 def jacobian_into(y, h, J, model):
-    """``J[:, j] = (f(y + h_j e) - f(y - h_j e)) / (2 h_j)``, e the unit vector of entry N_ROT - 3 + j: the
-    central-difference Jacobian of the rates of (w, q, q') of a free body without loads at the state y (its
-    quaternion does not enter them), with linearise.jacobian's steps ``h``."""
+    """The central-difference Jacobian of the rates of (w, q, q') (the entries after the quaternion, which does
+    not enter them) of a free body without loads at the state y, with linearise.jacobian's steps ``h``:
+    ``J[i, j] = (f(y + h_j e_{4+j}) - f(y - h_j e_{4+j}))_{4+i} / (2 h_j)``."""
     n = y.shape[0]
     m = n - 4
     zero3, zf = np.zeros(3), np.zeros((n - N_ROT) // 2)

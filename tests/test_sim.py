@@ -475,3 +475,17 @@ def test_the_cost_model_never_makes_a_set_cheaper_by_adding_a_term(nf):
         extra = rng.choice([t for t in IDS if t not in terms]) if len(terms) < len(IDS) else "gyro0"
         assert rhs_cost(terms | {extra}, nf) > rhs_cost(terms, nf) or extra in terms
         assert cost_ratio(terms | {extra}, terms, nf) == rhs_cost(terms | {extra}, nf) / rhs_cost(terms, nf)
+
+
+def test_the_spin_profile_of_an_array_of_times_is_that_of_each_time():
+    """spin_profile takes arrays (the mode-set advice samples a rise at 2001 points at once): each entry equals the
+    scalar evaluation, w rises from 0 to W with w' = 0 at both ends and is held at W after T; T = 0: W at once."""
+    from ffrf_advisor.sim.loads import spin_profile
+    t = np.linspace(0.0, 1.5, 31)
+    w, a = spin_profile(3.0, 1.0)(t)
+    scalar = np.array([spin_profile(3.0, 1.0)(x) for x in t])
+    assert np.array_equal(np.column_stack([w, a]), scalar)
+    assert w[0] == 0.0 and a[0] == 0.0 and np.all(w[t >= 1.0] == 3.0) and np.all(a[t >= 1.0] == 0.0)
+    assert np.all(np.diff(w) >= 0) and np.all(a >= 0)
+    w0, a0 = spin_profile(3.0, 0.0)(t)
+    assert np.all(w0 == 3.0) and np.all(a0 == 0.0) and spin_profile(3.0, 0.0)(0.2) == (3.0, 0.0)

@@ -34,7 +34,7 @@ def _console(kind: str):
     an earlier run in this process (tests, notebooks); "info" is stderr, silent under --quiet."""
     if kind not in _consoles:
         from rich.console import Console
-        console = Console(stderr=kind != "out", emoji=False,  # names like zoo:ring:1003 stay text (no emoji)
+        console = Console(stderr=kind != "out", emoji=False, highlight=False,  # emoji: names like zoo:ring:1003 stay text
                           quiet=kind == "info" and _run["quiet"])
         console.width = console.width
         _consoles[kind] = console

@@ -278,8 +278,7 @@ def response_factors(f_hz, rise_s: float) -> tuple[np.ndarray, np.ndarray]:
     om = 2 * np.pi * np.atleast_1d(np.asarray(f_hz, float))
     if rise_s <= 0:
         return np.full_like(om, 2.0), np.ones_like(om)
-    t, w, _ = _rise(rise_s)
-    return _peaks(om, t, w**2)
+    return _cached_peaks(tuple(om.tolist()), rise_s, "spin")
 
 
 def euler_factors(f_hz, rise_s: float) -> tuple[np.ndarray, float]:
@@ -290,9 +289,25 @@ def euler_factors(f_hz, rise_s: float) -> tuple[np.ndarray, float]:
     om = 2 * np.pi * np.atleast_1d(np.asarray(f_hz, float))
     if rise_s <= 0:
         return np.zeros_like(om), 0.0
-    t, w, a = _rise(rise_s)
-    h = a * w**2
-    return _peaks(om, t, h / h.max())[0], float(h.max())
+    return _cached_peaks(tuple(om.tolist()), rise_s, "euler")[0], float(_euler_load(rise_s).max())
+
+
+def _euler_load(rise_s: float) -> np.ndarray:
+    """``(w / W)^2 w' / W`` at the points of the rise (``euler_factors``' load before scaling) [1/s]."""
+    _, w, a = _rise(rise_s)
+    return a * w**2
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_peaks(om: tuple[float, ...], rise_s: float, load: str) -> tuple[np.ndarray, np.ndarray]:
+    """``_peaks`` of the spin's rise (``load`` "spin": ``(w / W)^2``; "euler": ``_euler_load`` over its maximum)
+    for the circular frequencies ``om``, kept: the predictions ask the same scene for every term set."""
+    t, w, _ = _rise(rise_s)
+    g = w**2 if load == "spin" else _euler_load(rise_s) / _euler_load(rise_s).max()
+    out = _peaks(np.array(om), t, g)
+    for x in out:
+        x.setflags(write=False)  # shared by the cache
+    return out
 
 
 @functools.lru_cache(maxsize=16)
@@ -300,7 +315,7 @@ def _rise(rise_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(t, w / W, w' / W) at RISE_STEPS + 1 points of a rise (sim.loads.spin_profile)."""
     from .sim.loads import spin_profile
     t = np.linspace(0.0, rise_s, RISE_STEPS + 1)
-    w, a = np.array([spin_profile(1.0, rise_s)(x) for x in t]).T
+    w, a = spin_profile(1.0, rise_s)(t)
     for x in (t, w, a):
         x.setflags(write=False)  # shared by the cache
     return t, w, a

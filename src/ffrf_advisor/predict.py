@@ -138,7 +138,7 @@ def best_pairs(score: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     is it (no pairing beats each row's own maximum); else scipy's linear_sum_assignment, whose import (0.45 s
     with scipy.optimize) the usual, diagonally dominant MAC matrix so does without."""
     rows, cols = np.arange(len(score)), np.argmax(score, axis=1)
-    if len(np.unique(cols)) == len(cols):
+    if len(set(cols.tolist())) == len(cols):  # not np.unique: its first call imports numpy.ma (18 ms)
         return rows, cols
     from scipy.optimize import linear_sum_assignment
     return linear_sum_assignment(-score)

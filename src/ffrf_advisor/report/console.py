@@ -10,7 +10,6 @@ import numpy as np
 from rich.console import Console
 from rich.markup import escape
 from rich.padding import Padding
-from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
 from rich.table import Table
 from rich.text import Text
 
@@ -160,7 +159,7 @@ def fitted_table(console: Console, title: str, headers, rows, left=(), prose: st
     values never; the ``prose`` column, a left-justified text, wraps at blanks into the width the others
     leave, at least its longest word); where that is wider than the console, one stacked block per row
     instead (right at any width)."""
-    plain = [Text.from_markup(h).plain for h in headers]
+    plain = [Text.from_markup(h, emoji=False).plain for h in headers]
     words = lambda k: [len(w) for r in rows for w in r[k].split()] + [len(w) for w in plain[k].split()]  # noqa
     widths = [max(words(k)) if h == prose else max([len(r[k]) for r in rows] + [len(w) for w in plain[k].split()])
               for k, h in enumerate(headers)]
@@ -255,6 +254,7 @@ def _live_bar(console: Console, after_s: float):
     def update(completed: float, total: float, label: str) -> None:
         nonlocal bar, task
         if bar is None and time.perf_counter() - start > after_s:
+            from rich.progress import BarColumn, Progress, TaskProgressColumn, TextColumn, TimeRemainingColumn
             bar = Progress(TextColumn("{task.description}"), BarColumn(), TaskProgressColumn(),
                            TimeRemainingColumn(), console=console, transient=True)
             bar.start()

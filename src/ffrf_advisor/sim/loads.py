@@ -14,11 +14,14 @@ import numpy as np
 
 def spin_profile(W: float, T: float) -> Callable[[float], tuple[float, float]]:
     """w(t) = (W/T)(t - (T/2 pi) sin(2 pi t/T)) for t < T, then W; and its derivative (theory section 10).
-    T = 0: W from the start."""
-    def profile(t: float) -> tuple[float, float]:
-        if t >= T:
-            return W, 0.0
-        return (W / T) * (t - T / (2 * np.pi) * np.sin(2 * np.pi * t / T)), (W / T) * (1 - np.cos(2 * np.pi * t / T))
+    T = 0: W from the start. ``t`` a number or an array of times."""
+    def profile(t):
+        held = np.asarray(t) >= T
+        if T <= 0:
+            return np.full(held.shape, W)[()], np.zeros(held.shape)[()]
+        r = np.minimum(t, T)
+        w = (W / T) * (r - T / (2 * np.pi) * np.sin(2 * np.pi * r / T))
+        return np.where(held, W, w)[()], np.where(held, 0.0, (W / T) * (1 - np.cos(2 * np.pi * r / T)))[()]
     return profile
 
 

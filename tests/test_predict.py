@@ -380,21 +380,24 @@ def test_the_mode_release_scene_shows_the_mixing_the_prediction_bounds(block_bod
 
 
 def test_the_quick_pairing_of_modes_is_the_optimal_assignment():
-    """predict.best_pairs against scipy's linear_sum_assignment: the same total score on diagonally dominant
-    MAC-like matrices (the shortcut) and on random ones (the fallback), rows x columns of 1 to 20 modes."""
+    """sim.linearise.best_pairs against scipy's linear_sum_assignment: the same total score on diagonally dominant
+    MAC-like matrices (the shortcut) and on random ones (the fallback), 1 to 20 rows, as many columns or two
+    fewer or more (the Campbell study pairs branches with the oscillations found at a speed)."""
     from scipy.optimize import linear_sum_assignment
 
-    from ffrf_advisor.predict import best_pairs
+    from ffrf_advisor.sim.linearise import best_pairs
     rng = np.random.default_rng(7)
     for n in range(1, 21):
-        for dominant in (True, False):
-            score = rng.random((n, n)) * (0.1 if dominant else 1.0)
-            if dominant:
-                score[np.arange(n), rng.permutation(n)] += 1.0
-            rows, cols = best_pairs(score)
-            best = linear_sum_assignment(-score)
-            assert sorted(cols) == list(range(n))
-            assert score[rows, cols].sum() == pytest.approx(score[best].sum(), rel=1e-15, abs=0)
+        for m in {n, max(1, n - 2), n + 2}:
+            for dominant in (True, False):
+                score = rng.random((n, m)) * (0.1 if dominant else 1.0)
+                if dominant:
+                    k = min(n, m)
+                    score[rng.permutation(n)[:k], rng.permutation(m)[:k]] += 1.0
+                rows, cols = best_pairs(score)
+                best = linear_sum_assignment(-score)
+                assert len(set(cols.tolist())) == len(cols) == min(n, m) and len(set(rows.tolist())) == len(rows)
+                assert score[rows, cols].sum() == pytest.approx(score[best].sum(), rel=1e-15, abs=0)
 
 
 def test_the_inertia_bound_over_pairs_equals_the_sum_pair_by_pair():

@@ -54,7 +54,7 @@ import numpy as np
 from .body import FlexibleBody
 from .sim import equations as eq
 from .sim.cost import rhs_cost
-from .sim.linearise import modal_spectrum
+from .sim.linearise import best_pairs, modal_spectrum
 from .sim.model import Model, build_model
 from .terms import FULL, GROUPS, LEVEL_SETS, is_lagrangian, lagrangian_superset, ordered
 
@@ -131,17 +131,6 @@ def _matched_error(f_ref: np.ndarray, V_ref: np.ndarray, f: np.ndarray, V: np.nd
     rel = np.abs(f[None, :] - f_ref[:, None]) / f_ref[:, None]
     rows, cols = best_pairs(mac - 1e-3 * np.minimum(rel, 1.0))
     return float(np.max(rel[rows, cols]))
-
-
-def best_pairs(score: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The pairing (rows, cols) of largest total score. When every row's best column is another column, that
-    is it (no pairing beats each row's own maximum); else scipy's linear_sum_assignment, whose import (0.45 s
-    with scipy.optimize) the usual, diagonally dominant MAC matrix so does without."""
-    rows, cols = np.arange(len(score)), np.argmax(score, axis=1)
-    if len(set(cols.tolist())) == len(cols):  # not np.unique: its first call imports numpy.ma (18 ms)
-        return rows, cols
-    from scipy.optimize import linear_sum_assignment
-    return linear_sum_assignment(-score)
 
 
 def response_time(f1: float, s: float) -> float:

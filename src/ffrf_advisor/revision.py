@@ -7,7 +7,7 @@ changed what the multibody code sees, to a relative ``tolerance``:
 - rigid body: mass, centre of mass (relative to the largest dimension),
   inertia tensor I0 (relative to its norm);
 - modes paired by shape where both bodies share their nodes (MAC with the
-  old body's mass, pairing of largest total MAC, ``predict.best_pairs``),
+  old body's mass, pairing of largest total MAC, ``sim.linearise.best_pairs``),
   else by order (said so): the frequency of each pair, and ``1 - MAC`` (a
   mode shape that changed while its frequency barely moved);
 - the invariants over the paired modes, signs aligned: ``Ibar`` (relative to
@@ -27,7 +27,7 @@ import numpy as np
 from .analysis import Options, analyze
 from .body import FlexibleBody
 from .fe.assembly import full_mass, stiffness_matrix
-from .predict import best_pairs
+from .sim.linearise import best_pairs
 
 
 @dataclass(frozen=True)

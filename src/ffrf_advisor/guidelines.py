@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -183,6 +182,7 @@ CONFIG_BYTES = 1 << 20  # a config file is a regular file of at most 1 MiB
 def _toml(path: Path) -> dict:
     """The TOML of a config file: a regular file of at most CONFIG_BYTES (a device, FIFO or directory is
     refused before it is opened for reading)."""
+    import tomllib  # here: most runs read no config file (4 ms of start-up)
     try:
         if not Path(path).is_file():
             kind = "a directory" if Path(path).is_dir() else "not found" if not Path(path).exists() else \

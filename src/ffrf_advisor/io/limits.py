@@ -111,14 +111,13 @@ def check_hdf5_references(path, f) -> None:
     """Every external link, external storage and virtual dataset source of an open HDF5 file."""
     import h5py
 
-    names: list[str] = []
-    f.visit_links(names.append)  # collected first: an exception inside h5py's visit would be mangled
-    for name in names:
-        link = f.get(name, getlink=True)
+    links: list = []
+    f.visititems_links(lambda *named: links.append(named))  # collected first: an exception inside h5py's visit
+    for name, link in links:                                # would be mangled
         if isinstance(link, h5py.ExternalLink):
             check_reference(path, name, link.filename)
-        elif isinstance(link, h5py.HardLink) and isinstance(f.get(name), h5py.Dataset):
-            _check_dataset_sources(path, name, f[name])
+        elif isinstance(link, h5py.HardLink) and isinstance(obj := f.get(name), h5py.Dataset):
+            _check_dataset_sources(path, name, obj)
 
 
 def _check_dataset_sources(path, name: str, ds) -> None:

@@ -60,9 +60,9 @@ def static_deflection(model: Model, w: np.ndarray) -> np.ndarray:
 def _static_stiffness(model: Model, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(K, f0): the flexible force at spin w is ``f0 - K q`` (K: Omega^2 - s^2 Kc + s^2 G for the full set)."""
     nf, zero = model.nf, np.zeros(model.nf)
-    f0 = eq.flexible_force(model, zero, zero, w, zero)
-    K = -(eq.flexible_force(model, np.eye(nf), np.zeros((nf, nf)), w, zero) - f0).T  # a column per q = e_j
-    return K, f0
+    q = np.vstack([zero, np.eye(nf)])  # q = 0, then q = e_j: one batched evaluation
+    f = eq.flexible_force(model, q, np.zeros_like(q), w, zero)
+    return -(f[1:] - f[0]).T, f[0]  # a column of K per q = e_j
 
 
 def _rates(model: Model, x: np.ndarray) -> np.ndarray:
@@ -77,7 +77,8 @@ def jacobian(model: Model, x: np.ndarray) -> np.ndarray:
     """Central-difference Jacobian of the rates of (w, q, q') at x, all columns in one batched evaluation."""
     h = _difference_steps(model, x)
     step = np.diag(h)
-    return ((_rates(model, x + step) - _rates(model, x - step)) / (2 * h)[:, None]).T
+    plus, minus = np.split(_rates(model, np.vstack([x + step, x - step])), 2)  # one batch: half the numpy calls
+    return ((plus - minus) / (2 * h)[:, None]).T
 
 
 def compiled_jacobian(model: Model):

@@ -235,10 +235,10 @@ def inertia_bound(ref: Model, model: Model, D: np.ndarray) -> np.ndarray:
     if ref.on("inertia_lin") and not model.on("inertia_lin"):
         bound += np.abs(eq.linear_inertia(ref, D)).sum(axis=0)
     if ref.on("inertia_quad") and not model.on("inertia_quad"):
-        bound += np.abs(eq.quadratic_inertia(ref, D[:, None], D[None, :])).sum(axis=(0, 1))  # all pairs at once
+        bound += np.abs(eq.quadratic_inertia(ref, D, D, pairs=True)).sum(axis=(0, 1))  # all pairs at once
     if ref.on("coupling") and not model.on("coupling"):
         C = eq.coupling_matrix(ref, D)
-        CC = np.einsum("iks,jls->ijkl", C, C)  # C_i C_j^T for every pair
+        CC = np.tensordot(C, C, axes=([2], [2])).transpose(0, 2, 1, 3)  # C_i C_j^T for every pair (i, j, k, l)
         bound += np.abs(0.5 * (CC + np.swapaxes(CC, 0, 1))).sum(axis=(0, 1))
     return bound
 

@@ -58,14 +58,15 @@ def linear_inertia(m: Model, q: np.ndarray) -> np.ndarray:
     return _identity_times(2 * np.trace(C1, axis1=-2, axis2=-1)) - C1 - np.swapaxes(C1, -1, -2)
 
 
-def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray) -> np.ndarray:
+def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray, pairs: bool = False) -> np.ndarray:
     """``tr(G) I - G`` with the symmetrised ``G[a, b] = 0.5 (q^T Sbar_ab r + r^T Sbar_ab q)``.
 
     ``q = r`` gives ``J2 = Qf^T W2 Qf``; ``(q', q)`` gives half of ``dJ2/dt``. ``q`` and ``r`` broadcast
-    against each other (``D[:, None], D[None, :]``: every pair of rows at once).
+    against each other; ``pairs``: every pair of a row of q (n, nf) and a row of r (k, nf), (n, k, 3, 3), as
+    ``q[:, None], r[None, :]`` would give, by a second BLAS product instead of a broadcast sum.
     """
     Sr = np.tensordot(r, m.Sbar, axes=([-1], [3]))  # (..., 3, 3, nf): Sbar_ab r, one BLAS product
-    G = np.einsum("...r,...abr->...ab", q, Sr)
+    G = np.tensordot(q, Sr, axes=([1], [3])) if pairs else np.einsum("...r,...abr->...ab", q, Sr)
     G = 0.5 * (G + np.swapaxes(G, -1, -2))
     return _identity_times(np.trace(G, axis1=-2, axis2=-1)) - G
 

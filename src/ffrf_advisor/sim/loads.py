@@ -12,16 +12,22 @@ from typing import Callable
 import numpy as np
 
 
-def spin_profile(W: float, T: float) -> Callable[[float], tuple[float, float]]:
+def spin_profile(W: float, T: float) -> Callable:
     """w(t) = (W/T)(t - (T/2 pi) sin(2 pi t/T)) for t < T, then W; and its derivative (theory section 10).
-    T = 0: W from the start. ``t`` a number or an array of times."""
+    T = 0: W from the start. ``t`` a number (numbers back: the Python integrators call it per evaluation) or a
+    numpy array of times (arrays back)."""
+    def rising(t):
+        x = 2 * np.pi * t / T
+        return (W / T) * (t - T / (2 * np.pi) * np.sin(x)), (W / T) * (1 - np.cos(x))
+
     def profile(t):
-        held = np.asarray(t) >= T
-        if T <= 0:
-            return np.full(held.shape, W)[()], np.zeros(held.shape)[()]
-        r = np.minimum(t, T)
-        w = (W / T) * (r - T / (2 * np.pi) * np.sin(2 * np.pi * r / T))
-        return np.where(held, W, w)[()], np.where(held, 0.0, (W / T) * (1 - np.cos(2 * np.pi * r / T)))[()]
+        if not isinstance(t, np.ndarray):
+            return (W, 0.0) if t >= T else rising(t)
+        held = t >= T
+        if held.all():  # T = 0 among others
+            return np.full(held.shape, float(W)), np.zeros(held.shape)
+        w, a = rising(np.where(held, 0.0, t))
+        return np.where(held, W, w), np.where(held, 0.0, a)
     return profile
 
 

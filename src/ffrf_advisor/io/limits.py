@@ -111,9 +111,10 @@ def check_hdf5_references(path, f) -> None:
     """Every external link, external storage and virtual dataset source of an open HDF5 file."""
     import h5py
 
-    links: list = []
-    f.visititems_links(lambda *named: links.append(named))  # collected first: an exception inside h5py's visit
-    for name, link in links:                                # would be mangled
+    names: list[str] = []
+    f.visit_links(names.append)  # names only, collected first: an exception inside h5py's visit (making a link
+    for name in names:           # object of a damaged file, as visititems_links would) ends as a SystemError
+        link = f.get(name, getlink=True)
         if isinstance(link, h5py.ExternalLink):
             check_reference(path, name, link.filename)
         elif isinstance(link, h5py.HardLink) and isinstance(obj := f.get(name), h5py.Dataset):

@@ -20,7 +20,7 @@ Prints
      the output names the counted parts;
   4. optionally (--sweep) the wall time of the zoo sweep `scripts/verify_zoo.py` (it rewrites
      docs/verification.md).
-Timings are minima over repeats, taken serially.
+Timings are minima over repeats, taken serially; those of parts 2 and 3 in turn within each repeat.
 
 Run: python benchmarks/bench_verify.py [--repeat N] [--skip-old] [--sweep]
 """
@@ -115,19 +115,34 @@ def per_evaluation(repeat: int) -> None:
               f"<= 1.5), {t / chain:.2f}x the chained calls")
 
 
-def timed(cmd: list[str], repeat: int) -> float:
-    return best(lambda: subprocess.run(cmd, check=True, capture_output=True, cwd=ROOT), repeat)
+def run_once(cmd: list[str]) -> float:
+    """Wall seconds of one run of the process ``cmd``."""
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, capture_output=True, cwd=ROOT)
+    return time.perf_counter() - t0
+
+
+def interleaved(timings: dict, repeat: int) -> dict[str, float]:
+    """The minimum over ``repeat`` rounds of each timing (a function returning seconds), every timing taken
+    once per round, in turn: this machine's speed drifts by tens of per cent over minutes, so timings taken
+    in separate blocks would put the drift into their ratios."""
+    out = dict.fromkeys(timings, np.inf)
+    for _ in range(repeat):
+        for name, fn in timings.items():
+            out[name] = min(out[name], fn())
+    return out
 
 
 @lru_cache(maxsize=None)
-def set_cost(terms: tuple[str, ...], repeat: int) -> float:
-    """Seconds per call of the compiled right-hand side of the term set ``terms`` on the beam (``rhs_alone``)."""
-    return rhs_alone(build_model(read_body(BEAM), terms), repeat)
+def set_model(terms: tuple[str, ...]):
+    """The beam's model of the term set ``terms``."""
+    return build_model(read_body(BEAM), terms)
 
 
-def compiled_cost(count: Counter, repeat: int) -> float:
-    """Seconds of the compiled right-hand sides ``count`` (evaluations per term set) alone."""
-    return sum(n * set_cost(terms, repeat) for terms, n in count.items())
+def compiled_cost(count: Counter) -> float:
+    """Seconds of the compiled right-hand sides ``count`` (evaluations per term set) alone, each set timed once
+    (``rhs_alone``)."""
+    return sum(n * rhs_alone(set_model(terms), 1) for terms, n in count.items())
 
 
 def evaluations(data: dict) -> tuple[Counter, Counter, list[str]]:
@@ -152,20 +167,29 @@ def evaluations(data: dict) -> tuple[Counter, Counter, list[str]]:
     return timed, once, parts
 
 
-def against_floor(flags: list[str], repeat: int, wall: float | None = None) -> None:
-    """Part 3 for ``verify [flags]``: its process wall (``wall`` when already timed) over the compiled floor."""
-    data = json.loads(subprocess.run([*NEW_PATH, *VERIFY, *flags, "--json"], check=True, capture_output=True,
-                                     cwd=ROOT, text=True).stdout)
+def floor_timings(flags: list[str]) -> tuple[dict, dict]:
+    """Part 3 for ``verify [flags]``: (timings for ``interleaved``: the process and its counted evaluations'
+    compiled cost, one run each and the floor with the timed runs x verify's repeats; what to print with them)."""
+    cmd = [*NEW_PATH, *VERIFY, *flags]
+    data = json.loads(subprocess.run([*cmd, "--json"], check=True, capture_output=True, cwd=ROOT, text=True).stdout)
     timed_count, once, parts = evaluations(data)
-    timed_s, once_s = (compiled_cost(c, max(repeat, 3)) for c in (timed_count, once))
+    label = " ".join(["default scenes", *flags])
+    timings = {label: lambda: run_once(cmd), f"{label} timed runs": lambda: compiled_cost(timed_count),
+               f"{label} runs taken once": lambda: compiled_cost(once)}
+    info = {"label": label, "parts": parts, "total": sum(timed_count.values()) + sum(once.values()),
+            "sets": len(timed_count | once), "studies": data["work_precision"] is not None}
+    return timings, info
+
+
+def print_floor(best: dict[str, float], info: dict, repeat: int) -> None:
+    label = info["label"]
+    wall, timed_s, once_s = best[label], best[f"{label} timed runs"], best[f"{label} runs taken once"]
     one, floor = timed_s + once_s, VERIFY_REPEATS * timed_s + once_s
-    wall = timed([*NEW_PATH, *VERIFY, *flags], repeat) if wall is None else wall
-    total = sum(timed_count.values()) + sum(once.values())
-    print(f"verify beam at 300 rad/s, default scenes{' '.join(['', *flags])}: process wall {wall:.1f} s (minimum of "
-          f"{repeat}), compiled floor {floor:.2f} s ({total} evaluations of {len(timed_count | once)} term sets, the "
-          f"timed runs x {VERIFY_REPEATS} repeats): {wall / floor:.1f}x the floor (target <= 2; {wall / one:.1f}x "
-          f"with one run each)\n  counted: {', '.join(parts)}; not counted (no evaluations reported): "
-          + ("set-up" if data["work_precision"] is None else "the stability studies, the Campbell study, set-up"))
+    print(f"verify beam at 300 rad/s, {label}: process wall {wall:.1f} s (minimum of {repeat}), compiled floor "
+          f"{floor:.2f} s ({info['total']} evaluations of {info['sets']} term sets, the timed runs x {VERIFY_REPEATS} "
+          f"repeats, timed in turn with the process): {wall / floor:.1f}x the floor (target <= 2; {wall / one:.1f}x "
+          f"with one run each)\n  counted: {', '.join(info['parts'])}; not counted (no evaluations reported): "
+          + ("the stability studies, the Campbell study, set-up" if info["studies"] else "set-up"))
 
 
 def main() -> None:
@@ -175,16 +199,21 @@ def main() -> None:
     parser.add_argument("--sweep", action="store_true")
     args = parser.parse_args()
     per_evaluation(max(args.repeat, 7))
-    new = timed([*NEW_PATH, *VERIFY], args.repeat)
+    parts = [floor_timings([]), floor_timings(["--quick"])]
+    timings = {k: v for t, _ in parts for k, v in t.items()}
+    if not args.skip_old:
+        timings["former path"] = lambda: run_once([sys.executable, "-c", OLD_PATH, *VERIFY])
+    best = interleaved(timings, args.repeat)
+    new = best["default scenes"]
     head = (f"verify beam at 300 rad/s (default scenes about both stable axes, term sets, work-precision, stability, "
-            f"Campbell), process wall, minimum of {args.repeat}: compiled {new:.1f} s, former path")
+            f"Campbell), process wall, minimum of {args.repeat}, the two paths in turn: compiled {new:.1f} s, "
+            "former path")
     if args.skip_old:
         print(f"{head} skipped (--skip-old)")
     else:
-        old = timed([sys.executable, "-c", OLD_PATH, *VERIFY], args.repeat)
-        print(f"{head} {old:.1f} s: {old / new:.1f}x (goal >= 10)")
-    against_floor([], args.repeat, new)
-    against_floor(["--quick"], args.repeat)
+        print(f"{head} {best['former path']:.1f} s: {best['former path'] / new:.1f}x (goal >= 10)")
+    for _, info in parts:
+        print_floor(best, info, args.repeat)
     if args.sweep:
         t0 = time.perf_counter()
         subprocess.run([sys.executable, "scripts/verify_zoo.py"], check=True, capture_output=True, cwd=ROOT)

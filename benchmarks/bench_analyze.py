@@ -19,15 +19,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 from tests.tree_memory import synthetic_body, tree_rss  # noqa: E402
+from timing import interleaved, wall  # noqa: E402
 
 from ffrf_advisor.io import read_body, write_body  # noqa: E402
 
@@ -38,18 +37,12 @@ COMMANDS = {"info": ["info"], "analyze": ["analyze", "--speed", "300rad/s"], "ga
 
 
 def timed(cmd: list[str], repeat: int) -> tuple[float, float]:
-    """(best wall time of ``cmd``, best of the import floor) [s], the two run in turn within each repeat: this
-    machine's speed drifts by tens of per cent over minutes, so a floor taken once would misstate later ratios."""
-    best, floor = float("inf"), float("inf")
+    """(best wall time of ``cmd``, best of the import floor) [s], the two in turn within each repeat (timing.py),
+    after a warm-up run of each that writes the bytecode."""
     for c in (cmd, FLOOR):
-        subprocess.run(c, env=ENV, check=True, capture_output=True)  # warm-up: writes the bytecode
-    for _ in range(repeat):
-        for c in (FLOOR, cmd):
-            t0 = time.perf_counter()
-            subprocess.run(c, env=ENV, check=True, capture_output=True)
-            wall = time.perf_counter() - t0
-            floor, best = (min(floor, wall), best) if c is FLOOR else (floor, min(best, wall))
-    return best, floor
+        wall(c, env=ENV)
+    best = interleaved({"cmd": lambda: wall(cmd, env=ENV), "floor": lambda: wall(FLOOR, env=ENV)}, repeat)
+    return best["cmd"], best["floor"]
 
 
 def cached(source: Path, target: Path) -> Path:

@@ -19,8 +19,9 @@ import re
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
+
+from timing import interleaved, wall
 
 BEAM = Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5"
 SCRIPT = Path(sys.executable).with_name("ffrf-advisor")  # the console script users run
@@ -37,12 +38,6 @@ RUNS = {
 }
 TARGETS = [("--version", "import typer", 1.2), ("--help", "import typer", 1.2),
            ("analyze beam", "import numpy, scipy.sparse, h5py", 1.3)]
-
-
-def wall(command: list[str]) -> float:
-    start = time.perf_counter()
-    subprocess.run(command, env=ENV, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return time.perf_counter() - start
 
 
 def import_tree(command: list[str]) -> list[tuple[str, float, str]]:
@@ -80,12 +75,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="bench-startup-pyc-") as cache:
         ENV["PYTHONPYCACHEPREFIX"] = cache
         for command in RUNS.values():
-            wall(command)  # warm-up: bytecode written
-        best = {name: float("inf") for name in RUNS}
-        for _ in range(args.repeat):
-            for name, command in RUNS.items():
-                best[name] = min(best[name], wall(command))
-        report(best)
+            wall(command, env=ENV)  # warm-up: bytecode written
+        report(interleaved({name: lambda c=command: wall(c, env=ENV) for name, command in RUNS.items()}, args.repeat))
 
 
 def report(best: dict[str, float]) -> None:

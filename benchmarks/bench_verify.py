@@ -20,7 +20,7 @@ Prints
      the output names the counted parts;
   4. optionally (--sweep) the wall time of the zoo sweep `scripts/verify_zoo.py` (it rewrites
      docs/verification.md).
-Timings are minima over repeats, taken serially; those of parts 2 and 3 in turn within each repeat.
+Timings are minima over repeats, taken serially, those of each part in turn within each repeat (timing.py).
 
 Run: python benchmarks/bench_verify.py [--repeat N] [--skip-old] [--sweep]
 """
@@ -37,6 +37,8 @@ from pathlib import Path
 
 import numba as nb
 import numpy as np
+
+from timing import interleaved, wall
 
 from ffrf_advisor.io import read_body
 from ffrf_advisor.sim import kernels
@@ -94,43 +96,23 @@ def rhs_alone(m, repeat: int, n: int = 20000, loop=_rhs_loop) -> float:
 
 
 def per_evaluation(repeat: int) -> None:
-    """Part 1: the compiled integrators per evaluation over the right-hand side alone (full set), the three
-    timed in turn within each repeat (this machine's speed drifts by tens of percent over minutes)."""
+    """Part 1: the compiled integrators per evaluation over the right-hand side alone and chained (full set),
+    the four timed in turn within each repeat (timing.py)."""
     body = read_body(BEAM)
     m = build_model(body, FULL)
     y0 = beam_state(m)
     runs = {"dop853 (rtol 1e-10)": lambda: integrate(m, y0, 0.02, "dop853", rtol=1e-10, atol=1e-14),
             "midpoint (h = 1e-5)": lambda: integrate(m, y0, 2e-3, "midpoint", 1e-5)}
     nfev = {name: run().nfev for name, run in runs.items()}
-    alone = chain = np.inf
-    per = dict.fromkeys(runs, np.inf)
-    for _ in range(repeat):
-        alone, chain = min(alone, rhs_alone(m, 1)), min(chain, rhs_alone(m, 1, loop=_rhs_chain))
-        for name, run in runs.items():
-            per[name] = min(per[name], best(run, 1) / nfev[name])
+    timings = {"alone": lambda: rhs_alone(m, 1), "chain": lambda: rhs_alone(m, 1, loop=_rhs_chain),
+               **{name: lambda run=run, name=name: best(run, 1) / nfev[name] for name, run in runs.items()}}
+    per = interleaved(timings, repeat)
+    alone, chain = per.pop("alone"), per.pop("chain")
     print(f"compiled right-hand side alone (beam, {body.nf} modes, full set): {alone * 1e6:.2f} us; each call on the "
           f"last one's result, as in an integrator: {chain * 1e6:.2f} us")
     for name, t in per.items():
         print(f"  {name}: {t * 1e6:.2f} us per evaluation, {t / alone:.2f}x the right-hand side alone (target "
               f"<= 1.5), {t / chain:.2f}x the chained calls")
-
-
-def run_once(cmd: list[str]) -> float:
-    """Wall seconds of one run of the process ``cmd``."""
-    t0 = time.perf_counter()
-    subprocess.run(cmd, check=True, capture_output=True, cwd=ROOT)
-    return time.perf_counter() - t0
-
-
-def interleaved(timings: dict, repeat: int) -> dict[str, float]:
-    """The minimum over ``repeat`` rounds of each timing (a function returning seconds), every timing taken
-    once per round, in turn: this machine's speed drifts by tens of per cent over minutes, so timings taken
-    in separate blocks would put the drift into their ratios."""
-    out = dict.fromkeys(timings, np.inf)
-    for _ in range(repeat):
-        for name, fn in timings.items():
-            out[name] = min(out[name], fn())
-    return out
 
 
 @lru_cache(maxsize=None)
@@ -174,7 +156,7 @@ def floor_timings(flags: list[str]) -> tuple[dict, dict]:
     data = json.loads(subprocess.run([*cmd, "--json"], check=True, capture_output=True, cwd=ROOT, text=True).stdout)
     timed_count, once, parts = evaluations(data)
     label = " ".join(["default scenes", *flags])
-    timings = {label: lambda: run_once(cmd), f"{label} timed runs": lambda: compiled_cost(timed_count),
+    timings = {label: lambda: wall(cmd, cwd=ROOT), f"{label} timed runs": lambda: compiled_cost(timed_count),
                f"{label} runs taken once": lambda: compiled_cost(once)}
     info = {"label": label, "parts": parts, "total": sum(timed_count.values()) + sum(once.values()),
             "sets": len(timed_count | once), "studies": data["work_precision"] is not None}
@@ -202,7 +184,7 @@ def main() -> None:
     parts = [floor_timings([]), floor_timings(["--quick"])]
     timings = {k: v for t, _ in parts for k, v in t.items()}
     if not args.skip_old:
-        timings["former path"] = lambda: run_once([sys.executable, "-c", OLD_PATH, *VERIFY])
+        timings["former path"] = lambda: wall([sys.executable, "-c", OLD_PATH, *VERIFY], cwd=ROOT)
     best = interleaved(timings, args.repeat)
     new = best["default scenes"]
     head = (f"verify beam at 300 rad/s (default scenes about both stable axes, term sets, work-precision, stability, "

@@ -303,8 +303,8 @@ def _cached_peaks(om: tuple[float, ...], rise_s: float, load: str) -> tuple[np.n
     """``_peaks`` of the spin's rise (``load`` "spin": ``(w / W)^2``; "euler": ``_euler_load`` over its maximum)
     for the circular frequencies ``om``, kept: the predictions ask the same scene for every term set."""
     t, w, _ = _rise(rise_s)
-    g = w**2 if load == "spin" else _euler_load(rise_s) / _euler_load(rise_s).max()
-    out = _peaks(np.array(om), t, g)
+    h = w**2 if load == "spin" else _euler_load(rise_s)
+    out = _peaks(np.array(om), t, h / h.max())  # (w / W)^2 ends at 1: its maximum
     for x in out:
         x.setflags(write=False)  # shared by the cache
     return out

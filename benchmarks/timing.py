@@ -1,0 +1,28 @@
+"""What the benchmarks time with: the wall time of a process, and minima over repeats of several timings
+taken in turn within each repeat (serially): this machine's speed drifts by tens of per cent over minutes,
+so timings taken in separate blocks would put the drift into their ratios.
+
+The benchmarks run as scripts (``python benchmarks/NAME.py``), so this folder is on their path.
+"""
+from __future__ import annotations
+
+import subprocess
+import time
+from collections.abc import Callable
+
+
+def wall(cmd: list[str], **run) -> float:
+    """Seconds of one run of the process ``cmd`` (its output captured; ``run``: subprocess.run's env, cwd)."""
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, capture_output=True, **run)
+    return time.perf_counter() - t0
+
+
+def interleaved(timings: dict[str, Callable[[], float]], repeat: int) -> dict[str, float]:
+    """The minimum over ``repeat`` rounds of each timing (a function returning seconds), every timing taken once
+    per round, in turn."""
+    best = dict.fromkeys(timings, float("inf"))
+    for _ in range(repeat):
+        for name, fn in timings.items():
+            best[name] = min(best[name], fn())
+    return best

@@ -137,6 +137,23 @@ def test_classical_rk4_equals_its_python_reference(block37, rng, nf):
     assert run.failed and ref.failed and (run.steps, run.reason) == (ref.steps, ref.reason)
 
 
+@pytest.mark.parametrize("h_factor", (0.5, 4.0))
+def test_rk4_in_chunks_for_a_progress_bar_equals_one_call(block37, rng, h_factor):
+    """With a progress callback RK4 runs in chunks of about 1 % (each a call from Python), else in one call:
+    the same samples bit for bit, the same evaluations, and past the explicit limit (h_factor 4) the same failing
+    step; the callback is told of rising fractions."""
+    model = build_model(block37.first_modes(16), FULL)
+    y0 = _state(rng, model)
+    h = h_factor * 2 * np.sqrt(2) / np.sqrt(model.eigenvalues.max())
+    told = []
+    chunked = integrate(model, y0, 2000 * h, "rk4", h, output_step=4 * h, progress=told.append)
+    whole = integrate(model, y0, 2000 * h, "rk4", h, output_step=4 * h)
+    assert np.array_equal(chunked.y, whole.y) and np.array_equal(chunked.t, whole.t)
+    assert (chunked.nfev, chunked.steps, chunked.failed, chunked.reason) == \
+        (whole.nfev, whole.steps, whole.failed, whole.reason)
+    assert whole.failed == (h_factor > 1) and len(told) >= (1 if whole.failed else 100) and told == sorted(told)
+
+
 def test_rk4_lie_stages_allocate_nothing(block37):
     """Numba's allocation count of rk4_loop is the same for 1 and 50 steps (it was 14 per step)."""
     nrt = pytest.importorskip("numba.core.runtime._nrt_python")

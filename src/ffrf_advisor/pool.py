@@ -1,19 +1,24 @@
 """Local worker processes for the commands that run many independent jobs (gate, verify, the sweep)."""
 from __future__ import annotations
 
-import multiprocessing
 import os
-from concurrent.futures import ProcessPoolExecutor
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
 from .io.guard import die_with_parent
+
+if TYPE_CHECKING:
+    from concurrent.futures import ProcessPoolExecutor
 
 
 def local_pool(jobs: int) -> ProcessPoolExecutor:
     """``jobs`` forked workers that reuse their process for every task, die with the tool and use one BLAS
     thread each: the workers share the cores, and BLAS threads on top of them made gate --jobs 2 slower than
     --jobs 1 (20 s against 12 s for 60 sample bodies). Forked, so a worker sees what the tool set up before
-    (``mapper``'s ``shared``) without pickling it per task."""
+    (``mapper``'s ``shared``) without pickling it per task. multiprocessing and concurrent.futures are imported
+    here, by the runs that use more than one job (about 20 ms of gate's and verify's start-up)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
     return ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"), initializer=_worker,
                                initargs=(os.getpid(),))
 

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import scipy
 
-from .kernels import HUGE, jit, rhs_loaded as _f
+from .kernels import HUGE, bare, jit, rhs_loaded as _f
 
 
 def _scipy_tableau():
@@ -52,7 +52,7 @@ EXPONENT = -1.0 / 8.0                          # error estimator of order 7
 OK, TOO_SMALL, NOT_FINITE, OVER_BUDGET = 0, 1, 2, 3
 
 
-@jit
+@bare
 def _rms(x, scale):
     s = 0.0
     for i in range(x.shape[0]):
@@ -78,7 +78,7 @@ def _initial_step(t0, y0, f0, t_end, rtol, atol, model, prog, fext, scratch, y1,
     return min(100.0 * h0, h1, t_end - t0)
 
 
-@jit
+@bare
 def _combine(coefficients, K, count, acc):
     """acc = sum_{j < count} coefficients[j] K[j], term by term in j (a contiguous multiply-add per stage, so the
     compiler vectorises over the state; the sum's order is the tableau's). A zero coefficient adds nothing to
@@ -93,7 +93,7 @@ def _combine(coefficients, K, count, acc):
             acc[i] += c * Kj[i]
 
 
-@jit
+@bare
 def _stages(t, y, h, K, first, last, model, prog, fext, scratch, ys):
     """K[s] for s in [first, last) from the tableau's row s (K[0] given)."""
     n = y.shape[0]
@@ -104,7 +104,7 @@ def _stages(t, y, h, K, first, last, model, prog, fext, scratch, ys):
         _f(t + C[s] * h, ys, K[s], model, prog, fext, scratch)
 
 
-@jit
+@bare
 def _error_norm(K, h, scale, a5, a3):
     """Hairer's combined estimate: |h| e5^2 / sqrt((e5^2 + 0.01 e3^2) n), e5 and e3 in the scale's norm (a5, a3:
     workspace)."""
@@ -120,7 +120,7 @@ def _error_norm(K, h, scale, a5, a3):
     return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * n)
 
 
-@jit
+@bare
 def _sample(t_old, h, y_old, y_new, K, DK, t_out, y_out, F):
     """The order-7 interpolant of the step at t_out (K holds the 16 stages, DK[r] = sum_s D[r, s] K[s]; F:
     workspace of 7)."""
@@ -151,11 +151,21 @@ def integrate_dop853(y0, t_end, rtol, atol, t_out, budget, out, model, prog, fex
     K, DK = np.empty((16, n)), np.empty((4, n))
     ys, y_new, tmp, a5, a3, F = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(7)
     y = y0.copy()
-    t = 0.0
-    _f(t, y, K[0], model, prog, fext, scratch)
-    h = _initial_step(t, y, K[0], t_end, rtol, atol, model, prog, fext, scratch, ys, tmp)
-    nfev, steps, row = 2, 0, 1
+    _f(0.0, y, K[0], model, prog, fext, scratch)
+    h = _initial_step(0.0, y, K[0], t_end, rtol, atol, model, prog, fext, scratch, ys, tmp)
     out[0] = y
+    return _steps(y, h, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scratch, K, DK, ys, y_new, tmp,
+                  a5, a3, F)
+
+
+@bare
+def _steps(y, h, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scratch, K, DK, ys, y_new, tmp, a5, a3,
+           F):
+    """``integrate_dop853``'s steps from t = 0 (y and K[0] = f(0, y) given, h the initial step) in its
+    workspace; its return values."""
+    n = y.shape[0]
+    t = 0.0
+    nfev, steps, row = 2, 0, 1
     while t < t_end:
         min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
         h = max(h, min_step)

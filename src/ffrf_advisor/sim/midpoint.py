@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kernels import HUGE, QUATERNION_TOL, jit, rhs_loaded
+from .kernels import HUGE, QUATERNION_TOL, bare, jit, rhs_loaded
 
 NEWTON_TOL = 1e-12
 NEWTON_MAX = 20
@@ -28,7 +28,7 @@ FD_STEP = 1e-7  # relative forward-difference step of the Jacobian
 OK, NOT_FINITE, QUATERNION, NO_NEWTON, DIVERGING = 0, 1, 2, 3, 4
 
 
-@jit
+@bare
 def _lu(A, piv):
     """A = P L U in place (Doolittle, partial pivoting); piv[i]: the row swapped with row i."""
     n = A.shape[0]
@@ -47,7 +47,7 @@ def _lu(A, piv):
                 A[i, j] -= A[i, k] * A[k, j]
 
 
-@jit
+@bare
 def _lu_solve(LU, piv, b):
     """x = A^-1 b in place, A = P L U from ``_lu`` (each row's sum in a local accumulator, so the compiler
     vectorises it)."""
@@ -67,7 +67,7 @@ def _lu_solve(LU, piv, b):
         b[i] = s / LU[i, i]
 
 
-@jit
+@bare
 def _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, fj, ym):
     """W = (1 - h/2 J)^-T, J the forward-difference Jacobian of f at (tm, y) (f0 = f(tm, y)), by LU with partial
     pivoting in M; stored transposed, so applying it is a sum of contiguous columns (``_apply``)."""
@@ -91,7 +91,7 @@ def _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, fj, ym)
             W[j, i] = fj[i]
 
 
-@jit
+@bare
 def _apply(W, r, x):
     """x = W^T r (W from ``_newton_inverse``: x = (1 - h/2 J)^-1 r)."""
     n = r.shape[0]
@@ -104,7 +104,7 @@ def _apply(W, r, x):
             x[i] += Wj[i] * rj
 
 
-@jit
+@bare
 def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R, kept):
     """Y from the Euler predictor by the simplified Newton iteration with the inverse W of ``_newton_inverse``:
     (code, iterations, largest ratio of successive corrections). ``kept``: W is from an earlier step, and a
@@ -143,7 +143,7 @@ def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, fj, ym, R, kept):
     return NO_NEWTON, NEWTON_MAX, theta
 
 
-@jit
+@bare
 def _step(t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, f0, fj, ym, R):
     """One midpoint step from y into Y, J taken at its start when ``fresh`` (else M is kept from an earlier
     step, and taken here only if the iteration on it fails): (failure code, evaluations, whether the next step
@@ -174,6 +174,13 @@ def midpoint_loop(y0, h, nsteps, every, out, model, prog, fext):
     f0, fj, ym, R = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     y, Y = y0.copy(), np.empty(n)
     out[0] = y
+    return _steps(y, Y, h, nsteps, every, out, model, prog, fext, scratch, M, piv, W, f0, fj, ym, R)
+
+
+@bare
+def _steps(y, Y, h, nsteps, every, out, model, prog, fext, scratch, M, piv, W, f0, fj, ym, R):
+    """``midpoint_loop``'s steps from y (advanced in place) in its workspace; its return values."""
+    n = y.shape[0]
     nfev, fresh = 0, True
     for step in range(nsteps):
         code, evaluations, fresh = _step(step * h, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, f0, fj,
@@ -184,5 +191,6 @@ def midpoint_loop(y0, h, nsteps, every, out, model, prog, fext):
         for i in range(n):
             y[i] = Y[i]
         if (step + 1) % every == 0:
-            out[(step + 1) // every] = y
+            for i in range(n):  # not out[row] = y: an array assignment needs numba's runtime
+                out[(step + 1) // every, i] = y[i]
     return nsteps, nfev, OK

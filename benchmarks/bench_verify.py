@@ -38,7 +38,7 @@ from pathlib import Path
 import numba as nb
 import numpy as np
 
-from timing import interleaved, wall
+from timing import interleaved, seconds, wall
 
 from ffrf_advisor.io import read_body
 from ffrf_advisor.sim import kernels
@@ -72,27 +72,18 @@ def _rhs_chain(y, out, n, model, zero3, zf):
             y[i] += 1e-300 * out[i]
 
 
-def best(fn, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
-
-
 def beam_state(m) -> np.ndarray:
     """The beam spinning at 300 rad/s about axis 3, every mode at 0.05."""
     return initial_state(m, (0.0, 0.0, 300.0), np.full(m.nf, 0.05))
 
 
-def rhs_alone(m, repeat: int, n: int = 20000, loop=_rhs_loop) -> float:
-    """Seconds per call of the compiled right-hand side of ``m`` at ``beam_state``, in a compiled loop (minimum;
-    ``loop``: ``_rhs_loop`` or ``_rhs_chain``)."""
+def rhs_alone(m, n: int = 20000, loop=_rhs_loop) -> float:
+    """Seconds per call of the compiled right-hand side of ``m`` at ``beam_state``, in a compiled loop of ``n``
+    calls, timed once (``interleaved`` takes the minimum; ``loop``: ``_rhs_loop`` or ``_rhs_chain``)."""
     y0 = beam_state(m)
     out, args = np.empty_like(y0), (_compiled_model(m), np.zeros(3), np.zeros(m.nf))
     loop(y0.copy(), out, 1, *args)
-    return best(lambda: loop(y0.copy(), out, n, *args), repeat) / n
+    return seconds(lambda: loop(y0.copy(), out, n, *args)) / n
 
 
 def per_evaluation(repeat: int) -> None:
@@ -104,8 +95,8 @@ def per_evaluation(repeat: int) -> None:
     runs = {"dop853 (rtol 1e-10)": lambda: integrate(m, y0, 0.02, "dop853", rtol=1e-10, atol=1e-14),
             "midpoint (h = 1e-5)": lambda: integrate(m, y0, 2e-3, "midpoint", 1e-5)}
     nfev = {name: run().nfev for name, run in runs.items()}
-    timings = {"alone": lambda: rhs_alone(m, 1), "chain": lambda: rhs_alone(m, 1, loop=_rhs_chain),
-               **{name: lambda run=run, name=name: best(run, 1) / nfev[name] for name, run in runs.items()}}
+    timings = {"alone": lambda: rhs_alone(m), "chain": lambda: rhs_alone(m, loop=_rhs_chain),
+               **{name: lambda run=run, name=name: seconds(run) / nfev[name] for name, run in runs.items()}}
     per = interleaved(timings, repeat)
     alone, chain = per.pop("alone"), per.pop("chain")
     print(f"compiled right-hand side alone (beam, {body.nf} modes, full set): {alone * 1e6:.2f} us; each call on the "
@@ -124,7 +115,7 @@ def set_model(terms: tuple[str, ...]):
 def compiled_cost(count: Counter) -> float:
     """Seconds of the compiled right-hand sides ``count`` (evaluations per term set) alone, each set timed once
     (``rhs_alone``)."""
-    return sum(n * rhs_alone(set_model(terms), 1) for terms, n in count.items())
+    return sum(n * rhs_alone(set_model(terms)) for terms, n in count.items())
 
 
 def evaluations(data: dict) -> tuple[Counter, Counter, list[str]]:

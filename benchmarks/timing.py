@@ -18,6 +18,13 @@ def wall(cmd: list[str], **run) -> float:
     return time.perf_counter() - t0
 
 
+def seconds(fn: Callable[[], object]) -> float:
+    """Seconds of one call of ``fn`` (a timing for ``interleaved``)."""
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
+
+
 def interleaved(timings: dict[str, Callable[[], float]], repeat: int) -> dict[str, float]:
     """The minimum over ``repeat`` rounds of each timing (a function returning seconds), every timing taken once
     per round, in turn."""

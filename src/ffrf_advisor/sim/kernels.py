@@ -405,6 +405,13 @@ def _dexpinv(theta, w, out):
     out[2] = w[2] + 0.5 * c2 + (theta[0] * c1 - theta[1] * c0) / 12.0
 
 
+@inline
+def store_row(out, row, y):
+    """out[row] = y, entry by entry (an array assignment needs numba's runtime, which ``bare`` code lacks)."""
+    for i in range(y.shape[0]):
+        out[row, i] = y[i]
+
+
 @bare
 def _check(bad, p_norm):
     """Failure code of a step: ``bad`` (a state entry not finite or beyond HUGE), or a quaternion norm that left 1."""
@@ -472,6 +479,5 @@ def _rk4_steps(y, h, nsteps, every, lie, out, model, zero3, zf, ys, k, th, theta
         if code != FAIL_NONE:
             return step + 1, code
         if (step + 1) % every == 0:
-            for i in range(n):  # not out[row] = y: an array assignment needs numba's runtime
-                out[(step + 1) // every, i] = y[i]
+            store_row(out, (step + 1) // every, y)
     return nsteps, FAIL_NONE

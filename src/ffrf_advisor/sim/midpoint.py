@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .kernels import HUGE, QUATERNION_TOL, bare, jit, rhs_loaded
+from .kernels import HUGE, QUATERNION_TOL, bare, jit, rhs_loaded, store_row
 
 NEWTON_TOL = 1e-12
 NEWTON_MAX = 20
@@ -191,6 +191,5 @@ def _steps(y, Y, h, nsteps, every, out, model, prog, fext, scratch, M, piv, W, f
         for i in range(n):
             y[i] = Y[i]
         if (step + 1) % every == 0:
-            for i in range(n):  # not out[row] = y: an array assignment needs numba's runtime
-                out[(step + 1) // every, i] = y[i]
+            store_row(out, (step + 1) // every, y)
     return nsteps, nfev, OK

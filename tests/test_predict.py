@@ -419,3 +419,22 @@ def test_the_inertia_bound_over_pairs_equals_the_sum_pair_by_pair():
                 + (twice * np.abs(0.5 * (C[i] @ np.swapaxes(C[j], -1, -2) + C[j] @ np.swapaxes(C[i], -1, -2))))
                 .sum(axis=0))
     assert inertia_bound(ref, bare, D) == pytest.approx(expected, rel=1e-12, abs=0)
+
+
+def test_linearised_spectra_on_two_threads_equal_those_taken_one_after_the_other(monkeypatch):
+    """The spectra the predictions take on two threads (one BLAS thread each; forced here for the beam's 35 states
+    and two processors) are those of ``modal_spectrum`` called in turn: the same frequencies to round-off of
+    the eigensolver (1e-12 relative) and the same mode shapes (MAC 1 after pairing) and static deflections."""
+    from ffrf_advisor import predict
+    body = read_body(DIR / "beam.ffrf.h5")
+    models = [build_model(body, reference_terms(body)), build_model(body, ("gyro0", "cf1", "cor1"))]
+    tasks = [(m, axis, 300.0) for axis in np.eye(3) for m in models]
+    serial = [modal_spectrum(*task) for task in tasks]
+    monkeypatch.setattr(predict, "THREADED_STATES", 0)
+    monkeypatch.setattr(predict.os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    threaded = predict.linearised_spectra(tasks)
+    assert len(threaded) == len(serial) == 6
+    for (f, V, q), (f_t, V_t, q_t) in zip(serial, threaded):
+        assert np.allclose(f_t, f, rtol=1e-12, atol=0) and np.allclose(q_t, q, rtol=1e-12, atol=1e-300)
+        mac = np.abs(np.sum(V.conj() * V_t, axis=0)) ** 2 / (np.sum(np.abs(V) ** 2, 0) * np.sum(np.abs(V_t) ** 2, 0))
+        assert np.allclose(mac, 1.0, atol=1e-10)

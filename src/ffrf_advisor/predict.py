@@ -46,6 +46,7 @@ vanish (a torque pulse from rest leaves the modes at rest to first order).
 """
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from itertools import combinations
 
@@ -279,17 +280,17 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
     ref_terms = reference_terms(body)
     ref = build_model(body, ref_terms)
     models = [build_model(body, terms) for _, terms in sets]
+    own = [m for m, (_, terms) in zip(models, sets) if set(terms) != set(ref.terms)]  # the reference's: 0
+    points = [(i_axis, np.asarray(a, float) / np.linalg.norm(a), s)
+              for i_axis, a in enumerate(axes) for s in speeds if s > 0]
+    spectra, per = linearised_spectra([(m, a, s) for _, a, s in points for m in (ref, *own)]), 1 + len(own)
     errors = np.zeros((len(sets), len(KINDS)))
     where = np.zeros((len(sets), len(KINDS)), dtype=int)
-    for i_axis, a in enumerate(axes):
-        a = np.asarray(a, float) / np.linalg.norm(a)
-        for s in speeds:
-            if s <= 0:
-                continue
-            e = _at(body, ref, models, sets, a, s, q_max, sigma_allow, stiff, excitation)
-            worse = e > errors
-            errors = np.where(worse, e, errors)
-            where = np.where(worse, i_axis, where)
+    for k, (i_axis, a, s) in enumerate(points):
+        e = _at(body, ref, models, sets, a, s, q_max, sigma_allow, stiff, excitation, spectra[k * per:(k + 1) * per])
+        worse = e > errors
+        errors = np.where(worse, e, errors)
+        where = np.where(worse, i_axis, where)
     full = rhs_cost(ref_terms, body.nf)
     return [Candidate(label, terms, dict(zip(KINDS, map(float, errors[i]))), dict(zip(KINDS, map(int, where[i]))),
                       rhs_cost(terms, body.nf) / full) for i, (label, terms) in enumerate(sets)]
@@ -301,9 +302,28 @@ def modal_amplitude(excitation: str, q_max: np.ndarray, q_static: np.ndarray) ->
     return np.abs(q_max) if excitation == "vibration" else DLF * np.abs(q_static)
 
 
-def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff, excitation) -> np.ndarray:
-    """(sets, KINDS) predictions at one spin s about one axis a."""
-    f_ref, V_ref, q_ref = modal_spectrum(ref, a, s)
+THREADED_STATES = 100  # linearisations of at least this many states (nf >= 49) run on two threads
+
+
+def linearised_spectra(tasks: list[tuple[Model, np.ndarray, float]]) -> list[tuple]:
+    """``modal_spectrum`` of each (model, axis, spin). Large ones run on two threads with one BLAS thread each:
+    LAPACK's eigensolver releases the GIL, and two eigenproblems of 203 states at once took half the time of
+    one after the other, where two BLAS threads for each gained nothing (numpy with OpenBLAS, 2 cores)."""
+    workers = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+    if not tasks or workers < 2 or 2 * tasks[0][0].nf + 3 < THREADED_STATES:
+        return [modal_spectrum(*task) for task in tasks]
+    from concurrent.futures import ThreadPoolExecutor
+
+    from threadpoolctl import threadpool_limits
+    with threadpool_limits(1), ThreadPoolExecutor(workers) as pool:
+        return list(pool.map(lambda task: modal_spectrum(*task), tasks))
+
+
+def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff, excitation, spectra) -> np.ndarray:
+    """(sets, KINDS) predictions at one spin s about one axis a; ``spectra``: ``modal_spectrum`` at (a, s) of
+    the reference, then of each set whose terms are not the reference's, in order."""
+    (f_ref, V_ref, q_ref), *own = spectra
+    own = iter(own)
     amplitude = modal_amplitude(excitation, q_max, q_ref)
     mix = mixing(body, a, s, q_max, sigma_allow, amplitude)
     widening = exact_widening(body, a, s)
@@ -311,7 +331,7 @@ def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff, excitat
     for i, (model, (_, terms)) in enumerate(zip(models, sets)):
         if set(terms) == set(ref.terms):
             continue
-        f, V, q = modal_spectrum(model, a, s)
+        f, V, q = next(own)
         out[i] = (_matched_error(f_ref, V_ref, f, V),
                   0.0 if model.on("cor_coupling") or not ref.on("cor_coupling") else mix,
                   static_error(body, q, q_ref, q_max, sigma_allow,

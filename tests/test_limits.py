@@ -283,3 +283,28 @@ def test_analyze_of_a_cached_body_costs_the_same_memory_whatever_its_modes_weigh
     assert all(code == 0 for code, _, _ in runs), runs
     (_, _, base), (_, _, rss) = runs
     assert rss["parent"] - base["parent"] + rss["child"] - base["child"] < 16, (rss, base)
+
+
+def test_the_parent_imports_what_its_command_needs_while_the_child_reads(tmp_path, monkeypatch):
+    """io.guard.importing_meanwhile: the named modules are imported by the parent (its pid) during the child's
+    parse (between the child's start and end), once; a read that does not fork leaves them unimported."""
+    (tmp_path / "meanwhile_probe.py").write_text("import os, time\nPID, AT = os.getpid(), time.time()\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+
+    def slow_parse(path):  # in the child
+        start = time.time()
+        time.sleep(0.5)
+        return start, time.time()
+    try:
+        with guard.importing_meanwhile("meanwhile_probe"):
+            start, end = guard.run(BEAM, "a slow parser", slow_parse, BEAM)
+            assert guard._MEANWHILE == []  # imported once, by the first read
+        probe = sys.modules["meanwhile_probe"]
+        assert probe.PID == os.getpid() and start <= probe.AT <= end
+        del sys.modules["meanwhile_probe"]
+        monkeypatch.setattr(guard, "FORK", False)
+        with guard.importing_meanwhile("meanwhile_probe"):
+            guard.run(BEAM, "an in-process parser", lambda path: None, BEAM)
+        assert "meanwhile_probe" not in sys.modules and guard._MEANWHILE == []
+    finally:
+        sys.modules.pop("meanwhile_probe", None)

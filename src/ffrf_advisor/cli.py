@@ -54,6 +54,13 @@ def _print_json(data) -> None:
     print(json.dumps(data, indent=1))
 
 
+def _importing(*modules: str):
+    """Within: this package's ``modules`` (what a command uses after its read) are imported while the reading
+    child parses the body file (io.guard.importing_meanwhile)."""
+    from .io.guard import importing_meanwhile
+    return importing_meanwhile(*(f"{__package__}.{m}" for m in modules))
+
+
 def run_analysis(body, options):
     """analysis.analyze, imported when a command analyses."""
     from .analysis import analyze
@@ -271,10 +278,11 @@ def info(body: Path = typer.Argument(..., help="Body file (any format, see `form
          eigenvalues: Eigenvalues = None, density: Density = None, units: UnitSystem = None,
          as_json: InfoJson = False):
     """Mass, CoM, I0, eigenfrequencies, modal stress and the checks of theory section 4."""
+    with _importing("checks", "report.console", "report.json_out"):
+        b = read_any(body, eigenvalues, density, load_fe=False, units=units)
     from .checks import run_checks
     from .report.console import body_summary
     from .report.json_out import info_json
-    b = read_any(body, eigenvalues, density, load_fe=False, units=units)
     checks = run_checks(b)
     if as_json:
         _print_json(info_json(b, checks, str(body)))
@@ -288,11 +296,13 @@ def info(body: Path = typer.Argument(..., help="Body file (any format, see `form
 def analyze(body: Path = typer.Argument(..., help="Body file."), as_json: AsJson = False, *,
             args: AnalysisArgs):
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
+    with _importing("modeset", "report.console", "report.json_out", "report.modes_out"):
+        b = args.read(body, load_fe="summary")
     from .modeset import ANALYZE_SCENES, advise_modes
     from .report.console import analysis_summary
     from .report.json_out import analysis_json
     from .report.modes_out import mode_set_json
-    result = run_analysis(args.read(body, load_fe="summary"), args.options(_note))
+    result = run_analysis(b, args.options(_note))
     mode_set = advise_modes(result, ANALYZE_SCENES)
     if as_json:
         _print_json({**analysis_json(result, str(body)), "mode_set": mode_set_json(mode_set)})

@@ -11,7 +11,6 @@ import math
 import os
 from dataclasses import replace
 
-import h5py
 import numpy as np
 
 from .. import __version__
@@ -22,6 +21,8 @@ from ..units import LENGTH, MASS, TIME, Units, UnitsError
 from .atomic import atomic_path
 from . import guard
 from .limits import Budget, check_file_size, check_hdf5_references
+
+h5py = guard.lazy_module("h5py")  # loaded in the reading and writing children only
 
 FORMAT_NAME = "ffrf_advisor.invariants"
 VERSION = 1

@@ -10,7 +10,6 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import h5py
 import numpy as np
 
 from .. import __version__
@@ -24,6 +23,8 @@ from ..units import Units, UnitsError
 from .atomic import atomic_path
 from . import guard
 from .limits import TREE_BYTES_PER_BYTE, Budget, check_hdf5_references
+
+h5py = guard.lazy_module("h5py")  # loaded in the reading and writing children only
 
 if TYPE_CHECKING:  # imported where the FE data is read or written: a cached body's analysis needs no scipy
     import scipy.sparse as sp
@@ -161,12 +162,14 @@ class _Reader:
     def fail(self, field: str, expected: str, got: str | None = None):
         raise BodyFileError(self.path, field, expected, got)
 
-    def node(self, name: str, kind=h5py.Dataset):
+    def node(self, name: str, group: bool = False):
+        """The dataset (the group with ``group``) ``name``."""
+        kind, what = (h5py.Group, "a group") if group else (h5py.Dataset, "a dataset")
         if name not in self.f:
-            self.fail(name, "a " + ("dataset" if kind is h5py.Dataset else "group"), "missing")
+            self.fail(name, what, "missing")
         obj = self.f[name]
         if not isinstance(obj, kind):
-            self.fail(name, "a " + ("dataset" if kind is h5py.Dataset else "group"), type(obj).__name__)
+            self.fail(name, what, type(obj).__name__)
         return obj
 
     def array(self, name: str, shape: tuple, what: str = "finite numbers", integer: bool = False) -> np.ndarray:
@@ -193,7 +196,7 @@ class _Reader:
         return value.decode() if isinstance(value, bytes) else value
 
     def csr(self, name: str, shape: tuple[int, int]) -> sp.csr_array:
-        g = self.node(name, h5py.Group)
+        g = self.node(name, group=True)
         got = tuple(int(s) for s in np.asarray(g.attrs.get("shape", ())).ravel())
         if got != shape:
             self.fail(f"{name}@shape", f"{shape}", str(got))
@@ -243,7 +246,7 @@ def _mesh(r: _Reader) -> Mesh:
     n = len(points)
     cells = {}
     if "mesh/cells" in r.f:
-        for cell_type, ds in r.node("mesh/cells", h5py.Group).items():
+        for cell_type, ds in r.node("mesh/cells", group=True).items():
             if cell_type not in ELEMENT_TYPES:
                 r.fail(f"mesh/cells/{cell_type}", f"a cell type of {', '.join(ELEMENT_TYPES)}")
             conn = r.array(f"mesh/cells/{cell_type}", (None, ELEMENT_TYPES[cell_type].n_nodes), integer=True)
@@ -273,7 +276,7 @@ def _mass(r: _Reader, n: int) -> sp.csr_array:
 
 
 def _cached_integrals(r: _Reader, nf: int) -> ShapeIntegrals:
-    g = r.node("invariants", h5py.Group)
+    g = r.node("invariants", group=True)
     mass = g.attrs.get("mass")
     if mass is None or np.ndim(mass) or not np.isfinite(mass) or mass <= 0:
         r.fail("invariants@mass", "a positive finite number", repr(mass))
@@ -310,7 +313,7 @@ def _cache_agrees(r: _Reader, cached: ShapeIntegrals, nodal: ShapeIntegrals) -> 
 def _summary(r: _Reader, nf: int) -> NodalSummary:
     """The cached summary of the nodal data (``body.NodalSummary``): what analyze, gate, compare, settings and info
     need of them, so those commands read neither the mesh nor the modes."""
-    g = r.node("nodal_summary", h5py.Group)
+    g = r.node("nodal_summary", group=True)
     deflection = r.array("nodal_summary/max_deflection", (nf,))
     size, n, stiffness = (g.attrs.get(k) for k in ("largest_dimension", "n_nodes", "stiffness"))
     if np.any(deflection < 0):
@@ -428,7 +431,7 @@ def _static_centrifugal(r: _Reader) -> StaticCentrifugal | None:
 def _material(r: _Reader) -> Material | None:
     if "material" not in r.f:
         return None
-    g = r.node("material", h5py.Group)
+    g = r.node("material", group=True)
     values = {}
     for key, ok, want in (("E", lambda v: v > 0, "a positive number"), ("rho", lambda v: v > 0, "a positive number"),
                           ("nu", lambda v: -1 < v < 0.5, "a number in (-1, 0.5)")):

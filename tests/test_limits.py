@@ -286,21 +286,24 @@ def test_analyze_of_a_cached_body_costs_the_same_memory_whatever_its_modes_weigh
 
 
 def test_the_parent_imports_what_its_command_needs_while_the_child_reads(tmp_path, monkeypatch):
-    """io.guard.importing_meanwhile: the named modules are imported by the parent (its pid) during the child's
-    parse (between the child's start and end), once; a read that does not fork leaves them unimported."""
-    (tmp_path / "meanwhile_probe.py").write_text("import os, time\nPID, AT = os.getpid(), time.time()\n")
+    """io.guard.importing_meanwhile: the named modules are imported by the parent (its pid) while the child
+    parses, once: a module taking 1 s to import and a parse taking 1 s end together (sleeps: no processor
+    needed), not after 2 s; a read that does not fork leaves them unimported."""
+    (tmp_path / "meanwhile_probe.py").write_text("import os, time\nPID, AT = os.getpid(), time.time()\n"
+                                                 "time.sleep(1.0)\n")
     monkeypatch.syspath_prepend(str(tmp_path))
 
     def slow_parse(path):  # in the child
-        start = time.time()
-        time.sleep(0.5)
-        return start, time.time()
+        time.sleep(1.0)
+        return time.time()
     try:
         with guard.importing_meanwhile("meanwhile_probe"):
-            start, end = guard.run(BEAM, "a slow parser", slow_parse, BEAM)
+            began = time.time()
+            end = guard.run(BEAM, "a slow parser", slow_parse, BEAM)
+            took = time.time() - began
             assert guard._MEANWHILE == []  # imported once, by the first read
         probe = sys.modules["meanwhile_probe"]
-        assert probe.PID == os.getpid() and start <= probe.AT <= end
+        assert probe.PID == os.getpid() and began <= probe.AT < end and took < 1.6
         del sys.modules["meanwhile_probe"]
         monkeypatch.setattr(guard, "FORK", False)
         with guard.importing_meanwhile("meanwhile_probe"):

@@ -79,9 +79,9 @@ def run(path, what: str, fn, *args, extra_bytes: int = 0):
 
 def lazy_module(name: str):
     """The module ``name``, loaded at the first use of one of its attributes (importlib.util.LazyLoader): a
-    reader's file library is then loaded in the reading and writing children, where it is used, and never
-    in the parent (h5py and the HDF5 library: about 25 ms of every command's start-up, and a parent that
-    holds no HDF5 state)."""
+    reader's file library is loaded where it is used, in the reading and writing children, and by the tool
+    itself only while a child parses and the command has nothing else to import then (``_meanwhile``): h5py
+    and the HDF5 library cost about 25 ms of start-up, which analyze and info, reading one body, never pay."""
     if name in sys.modules:
         return sys.modules[name]
     spec = importlib.util.find_spec(name)
@@ -89,18 +89,21 @@ def lazy_module(name: str):
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     spec.loader.exec_module(module)
+    _LAZY.append(name)
     return module
 
 
+_LAZY: list[str] = []  # the libraries of lazy_module
 _MEANWHILE: list[str] = []  # modules the parent imports while the next reading child parses
 
 
 @contextmanager
 def importing_meanwhile(*modules: str):
     """Within: the parent imports ``modules`` (by name: what its command needs after the read) while the next
-    reading child parses the file, instead of before or after it. On two processors the two overlap (the
-    beam's summary takes the child about 18 ms, analyze imports about 45 ms after it); on one they take what
-    they took. A read that does not fork (``FORK`` False) leaves them to the command's own imports."""
+    reading child parses the file, instead of before or after it, and not the file libraries (``_meanwhile``).
+    On two processors the two overlap (the beam's summary takes the child about 45 ms with its h5py import,
+    analyze imports about 45 ms meanwhile); on one they take what they took. A read that does not fork
+    (``FORK`` False) leaves them to the command's own imports."""
     _MEANWHILE[:] = modules
     try:
         yield
@@ -108,11 +111,18 @@ def importing_meanwhile(*modules: str):
         _MEANWHILE.clear()
 
 
-def _imported_then_received(fd: int, deadline: float, most: int):
-    """``_receive`` after importing the modules of ``importing_meanwhile`` (once)."""
-    modules, _MEANWHILE[:] = tuple(_MEANWHILE), []
+def _meanwhile() -> None:
+    """While a reading child parses: the modules of ``importing_meanwhile`` (once), else the file libraries of
+    ``lazy_module``, so that later children (a command reading several bodies, writing one) inherit them
+    loaded instead of each loading them anew."""
+    modules, _MEANWHILE[:] = tuple(_MEANWHILE) or tuple(_LAZY), []
     for name in modules:
-        importlib.import_module(name)
+        getattr(importlib.import_module(name), "__name__")  # an attribute: loads a lazy module
+
+
+def _imported_then_received(fd: int, deadline: float, most: int):
+    """``_receive`` after ``_meanwhile``."""
+    _meanwhile()
     return _receive(fd, deadline, most)
 
 

@@ -280,7 +280,7 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
     ref_terms = reference_terms(body)
     ref = build_model(body, ref_terms)
     models = [build_model(body, terms) for _, terms in sets]
-    own = [m for m, (_, terms) in zip(models, sets) if set(terms) != set(ref.terms)]  # the reference's: 0
+    own = [m for m, (_, terms) in zip(models, sets) if set(terms) != set(ref.terms)]  # the others: errors 0
     points = [(i_axis, np.asarray(a, float) / np.linalg.norm(a), s)
               for i_axis, a in enumerate(axes) for s in speeds if s > 0]
     spectra, per = linearised_spectra([(m, a, s) for _, a, s in points for m in (ref, *own)]), 1 + len(own)

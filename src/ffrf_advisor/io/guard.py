@@ -26,11 +26,11 @@ import importlib.util
 import io
 import os
 import pickle
-import sys
 import resource
 import select
 import signal
 import struct
+import sys
 import time
 from contextlib import contextmanager
 

@@ -121,10 +121,9 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
     done, code, start, y = 0, 0, time.perf_counter(), y0
     while done < nsteps and code == 0:
         n = min(chunk, nsteps - done)
-        part = np.empty((n // every + 1, len(y0)))
+        part = out[done // every:done // every + n // every + 1]  # its row 0: y, the last chunk's last row
         steps, code = kernels.rk4_loop(y, h, n, every, lie, part, compiled)
         rows = steps // every if code else n // every
-        out[done // every:done // every + rows + 1] = part[:rows + 1]
         done += steps
         y = part[rows]
         if progress:

@@ -18,7 +18,6 @@ Run: python benchmarks/bench_analyze.py [--repeat N] [--skip-synthetic]
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import tempfile
 from pathlib import Path
@@ -26,12 +25,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 from tests.tree_memory import synthetic_body, tree_rss  # noqa: E402
-from timing import interleaved, wall  # noqa: E402
+from timing import installed_env, interleaved, wall  # noqa: E402
 
 from ffrf_advisor.io import read_body, write_body  # noqa: E402
 
 FLOOR = [sys.executable, "-c", "import numpy, scipy.sparse, h5py"]
-ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+ENV: dict[str, str] = {}  # timing.installed_env, set in main
 COMMANDS = {"info": ["info"], "analyze": ["analyze", "--speed", "300rad/s"], "gate": ["gate", "--speed", "300rad/s",
                                                                                        "--max-level", "IV"]}
 
@@ -57,7 +56,7 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        ENV["PYTHONPYCACHEPREFIX"] = str(tmp / "pycache")
+        ENV.update(installed_env(str(tmp / "pycache")))
         bodies = {name: cached(ROOT / "sample_bodies" / f"{name}.ffrf.h5", tmp / f"{name}.ffrf.h5")
                   for name in ("beam", "carbody")}
         if not args.skip_synthetic:

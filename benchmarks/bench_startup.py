@@ -14,19 +14,18 @@ Run: python benchmarks/bench_startup.py [--repeat N]
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
-from timing import interleaved, wall
+from timing import installed_env, interleaved, wall
 
 BEAM = Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5"
 SCRIPT = Path(sys.executable).with_name("ffrf-advisor")  # the console script users run
 CLI = [sys.executable, str(SCRIPT)] if SCRIPT.is_file() else [sys.executable, "-m", "ffrf_advisor"]
-ENV = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+ENV: dict[str, str] = {}  # timing.installed_env, set in main
 RUNS = {
     "python -c pass": [sys.executable, "-c", "pass"],
     "import typer": [sys.executable, "-c", "import typer"],
@@ -73,7 +72,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=15, help="runs of each command (the minimum counts)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="bench-startup-pyc-") as cache:
-        ENV["PYTHONPYCACHEPREFIX"] = cache
+        ENV.update(installed_env(cache))
         for command in RUNS.values():
             wall(command, env=ENV)  # warm-up: bytecode written
         report(interleaved({name: lambda c=command: wall(c, env=ENV) for name, command in RUNS.items()}, args.repeat))

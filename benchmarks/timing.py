@@ -6,9 +6,17 @@ The benchmarks run as scripts (``python benchmarks/NAME.py``), so this folder is
 """
 from __future__ import annotations
 
+import os
 import subprocess
 import time
 from collections.abc import Callable
+
+
+def installed_env(cache: str) -> dict[str, str]:
+    """This environment as an installation's: bytecode written to and read from ``cache`` (a scratch
+    PYTHONPYCACHEPREFIX; warm it with one run), even where PYTHONDONTWRITEBYTECODE is set here."""
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    return {**env, "PYTHONPYCACHEPREFIX": cache}
 
 
 def wall(cmd: list[str], **run) -> float:

@@ -38,12 +38,17 @@ def _gate_record(path: str, options: Options, max_level: str, read_options: dict
             "within": LEVELS.index(result["level"]) <= LEVELS.index(max_level)}
 
 
+CHUNK = 2  # bodies per hand-out: a pickled round trip (about 1 ms) per two bodies, and at the end a worker
+# waits for the other's last chunk only (chunks of 7, a quarter of each worker's share, left 1.55-1.59x
+# for 60 bodies at --jobs 2; chunks of 2 gave 1.81x, benchmarks/bench_gate.py)
+
+
 def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, read_options: dict | None = None,
              progress: Callable[[str, int, int], None] | None = None) -> list[dict]:
-    """Each body's gate record (gate_one) in order, ``jobs`` processes handing out bodies in chunks;
+    """Each body's gate record (gate_one) in order, ``jobs`` processes handing out bodies ``CHUNK`` at a time;
     ``progress(file, done, total)`` after each body when given."""
     results = []
-    with mapper(jobs, chunksize=max(1, len(paths) // (4 * jobs))) as map_:
+    with mapper(jobs, chunksize=CHUNK) as map_:
         for record in map_(gate_one, paths, *([x] * len(paths) for x in (options, max_level, read_options))):
             results.append(record)
             if progress is not None:

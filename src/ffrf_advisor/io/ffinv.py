@@ -22,7 +22,7 @@ from .atomic import atomic_path
 from . import guard
 from .limits import Budget, check_file_size, check_hdf5_references
 
-h5py = guard.lazy_module("h5py")  # loaded in the reading and writing children only
+h5py = guard.lazy_module("h5py")  # loaded at first use: in the children, in the tool only meanwhile (guard)
 
 FORMAT_NAME = "ffrf_advisor.invariants"
 VERSION = 1

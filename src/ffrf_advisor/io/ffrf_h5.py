@@ -24,7 +24,7 @@ from .atomic import atomic_path
 from . import guard
 from .limits import TREE_BYTES_PER_BYTE, Budget, check_hdf5_references
 
-h5py = guard.lazy_module("h5py")  # loaded in the reading and writing children only
+h5py = guard.lazy_module("h5py")  # loaded at first use: in the children, in the tool only meanwhile (guard)
 
 if TYPE_CHECKING:  # imported where the FE data is read or written: a cached body's analysis needs no scipy
     import scipy.sparse as sp

@@ -11,9 +11,10 @@ parent run anything. The child is bounded on its own: it dies with its
 parent (PR_SET_PDEATHSIG), by an alarm at the deadline, and its address
 space is limited to what it had plus the memory limit (``limits``). The
 parent kills and reaps it on every path out (error, Ctrl-C, SIGTERM).
-While the child parses, the parent may import what its command needs
-after the read (``importing_meanwhile``); the file libraries themselves
-(h5py, the HDF5 library) are loaded in the children alone (``lazy_module``).
+The file libraries (h5py, the HDF5 library) are loaded where they are
+used, in the children (``lazy_module``); while a child parses, the parent
+imports what its command needs after the read (``importing_meanwhile``),
+else those libraries, for the children that follow.
 """
 from __future__ import annotations
 

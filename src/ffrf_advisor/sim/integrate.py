@@ -138,7 +138,7 @@ def _compiled_model(m: Model) -> tuple:
     """The model as the compiled loops read it (``kernels.rhs_into``): the Sbar blocks in strips or tall
     (sim.model), with its scratch workspace."""
     from . import kernels
-    return (m.flags, m.I0, m.Ibar, m.diag, m.off, m.tall, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf))
+    return (m.flags, m.I0, m.Ibar, *m.kernel_blocks, m.eigenvalues, m.damping, m.G, kernels.workspace(m.nf))
 
 
 MIDPOINT_FAILURES = {1: REASONS[1], 2: REASONS[2], 3: "Newton iteration did not converge"}

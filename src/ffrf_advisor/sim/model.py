@@ -27,6 +27,7 @@ from ``tall`` instead: ``tall[t]`` holds column t of every block, so
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -59,13 +60,24 @@ class Model:
     eigenvalues: np.ndarray
     damping: np.ndarray
     G: np.ndarray         # (6, nf, nf), zeros without geo_stiff
-    diag: np.ndarray      # (3, ~nf^2 / 2): strips of the upper halves of Sbar[k, k]; zeros without W2 terms
-    off: np.ndarray       # (3, ~nf^2): strips of Sbar[a, b] for cyclic (k, a, b), of W3k / 2 with W3 alone
-    tall: np.ndarray      # (nf, 9 nf): the same blocks column by column for nf <= TALL_MAX, else (0, 0)
 
     @property
     def nf(self) -> int:
         return len(self.eigenvalues)
+
+    @cached_property
+    def kernel_blocks(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(diag, off, tall): Sbar as the compiled kernels read it (module docstring), built at first use (the
+        plain-numpy equations, which the advice's linearisations evaluate, never read it). ``diag`` (3, ~nf^2 /
+        2): strips of the upper halves of Sbar[k, k]; ``off`` (3, ~nf^2): strips of Sbar[a, b] for the cyclic
+        (k, a, b), of W3k / 2 with W3 alone; both (3, 0) up to TALL_MAX modes, where ``tall`` (nf, 9 nf) holds
+        the same blocks column by column (else (0, 0))."""
+        w3_alone = any(self.on(t) for t in ("coupling", "cor_coupling")) and \
+            not any(self.on(t) for t in ("inertia_quad", "cf2", "cor_quad"))
+        blocks = product_blocks(self.Sbar, 0.5 * self.W3k if w3_alone else None)
+        if self.nf <= TALL_MAX:
+            return np.zeros((3, 0)), np.zeros((3, 0)), tall_blocks(*blocks)
+        return *compact_blocks(*blocks), np.zeros((0, 0))
 
     @property
     def flags(self) -> np.ndarray:
@@ -98,14 +110,10 @@ def build_model(body: FlexibleBody, terms, damping=0.0, G: np.ndarray | None = N
     need_w3 = any(t in terms for t in ("coupling", "cor_coupling"))
     Sbar = np.array(ints.Sbar) if need_w2 else np.zeros((3, 3, nf, nf))
     W3k = ints.W3().reshape(3, nf, nf) if need_w3 else np.zeros((3, nf, nf))
-    blocks = product_blocks(Sbar, 0.5 * W3k if need_w3 and not need_w2 else None)
-    small = nf <= TALL_MAX
-    diag, off = (np.zeros((3, 0)), np.zeros((3, 0))) if small else compact_blocks(*blocks)
     return Model(terms=terms, I0=np.array(body.I0), Ibar=np.array(ints.Ibar), Sbar=np.ascontiguousarray(Sbar),
                  W3k=np.ascontiguousarray(W3k), eigenvalues=np.array(body.eigenvalues),
                  damping=2 * zeta * np.sqrt(np.abs(body.eigenvalues)),
-                 G=np.zeros((6, nf, nf)) if G is None else np.ascontiguousarray(G, dtype=float),
-                 diag=diag, off=off, tall=tall_blocks(*blocks) if small else np.zeros((0, 0)))
+                 G=np.zeros((6, nf, nf)) if G is None else np.ascontiguousarray(G, dtype=float))
 
 
 def product_blocks(Sbar: np.ndarray, skew: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

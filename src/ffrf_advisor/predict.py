@@ -228,19 +228,31 @@ def static_error(body: FlexibleBody, q: np.ndarray, q_ref: np.ndarray, q_max: np
     return float(e)
 
 
-def inertia_bound(ref: Model, model: Model, D: np.ndarray) -> np.ndarray:
-    """Elementwise bound (3, 3) of ``(I_TT - C C^T)`` of ``ref`` minus that of ``model`` over every deformation
-    ``sum_i +-D[i]`` (rows: the parts of the deformation), by the triangle inequality: the linear terms once
-    per part, the quadratic ones once per ordered pair (i, j) (symmetric in i, j: twice per pair i < j)."""
-    bound = np.zeros((3, 3))
-    if ref.on("inertia_lin") and not model.on("inertia_lin"):
-        bound += np.abs(eq.linear_inertia(ref, D)).sum(axis=0)
-    if ref.on("inertia_quad") and not model.on("inertia_quad"):
-        bound += np.abs(eq.quadratic_inertia(ref, D, D, pairs=True)).sum(axis=(0, 1))  # all pairs at once
-    if ref.on("coupling") and not model.on("coupling"):
+def inertia_parts(ref: Model, D: np.ndarray) -> dict[str, np.ndarray]:
+    """Elementwise bounds (3, 3) of the groups of ``ref``'s inertia ``I_TT - C C^T`` ("inertia_lin",
+    "inertia_quad", "coupling": those ref carries) over every deformation ``sum_i +-D[i]`` (rows: the parts of
+    the deformation), by the triangle inequality: the linear terms once per part, the quadratic ones once per
+    ordered pair (i, j) (symmetric in i, j: twice per pair i < j)."""
+    parts = {}
+    if ref.on("inertia_lin"):
+        parts["inertia_lin"] = np.abs(eq.linear_inertia(ref, D)).sum(axis=0)
+    if ref.on("inertia_quad"):
+        parts["inertia_quad"] = np.abs(eq.quadratic_inertia(ref, D, D, pairs=True)).sum(axis=(0, 1))  # all pairs
+    if ref.on("coupling"):
         C = eq.coupling_matrix(ref, D)
         CC = np.tensordot(C, C, axes=([2], [2])).transpose(0, 2, 1, 3)  # C_i C_j^T for every pair (i, j, k, l)
-        bound += np.abs(0.5 * (CC + np.swapaxes(CC, 0, 1))).sum(axis=(0, 1))
+        parts["coupling"] = np.abs(0.5 * (CC + np.swapaxes(CC, 0, 1))).sum(axis=(0, 1))
+    return parts
+
+
+def inertia_bound(ref: Model, model: Model, D: np.ndarray, parts: dict | None = None) -> np.ndarray:
+    """Elementwise bound (3, 3) of ``(I_TT - C C^T)`` of ``ref`` minus that of ``model`` over every deformation
+    ``sum_i +-D[i]``: the ``inertia_parts`` (given, or taken here) of the groups model leaves out."""
+    parts = inertia_parts(ref, D) if parts is None else parts
+    bound = np.zeros((3, 3))
+    for group, part in parts.items():
+        if not model.on(group):
+            bound += part
     return bound
 
 
@@ -258,13 +270,20 @@ def momentum_exchange(W3k: np.ndarray, om: np.ndarray, amplitude: np.ndarray, q_
     return np.einsum("kpq,pq->k", np.abs(W3k), pair / 2 + static)  # pair / 2: each pair is counted twice
 
 
-def rigid_error(ref: Model, model: Model, q_static: np.ndarray, amplitude: np.ndarray, s: float) -> float:
+def deformation_parts(q_static: np.ndarray, amplitude: np.ndarray) -> np.ndarray:
+    """(nf + 1, nf): every mode at its amplitude, then the static deflection (the parts D of ``inertia_parts``)."""
+    return np.vstack([np.diag(amplitude), q_static[None, :]])
+
+
+def rigid_error(ref: Model, model: Model, q_static: np.ndarray, amplitude: np.ndarray, s: float,
+                parts: dict | None = None) -> float:
     """Relative error of w: ``max_k |dI e_k| / I0_kk`` at the static deflection plus every mode at its
     amplitude (any signs), and without the W3 group the internal angular momentum the vibrating modes exchange
-    with the rigid motion within the response time (``momentum_exchange``), over ``I0_kk s``."""
-    D = np.vstack([np.diag(amplitude), q_static[None, :]])
+    with the rigid motion within the response time (``momentum_exchange``), over ``I0_kk s``; ``parts``: the
+    ``inertia_parts`` of ``deformation_parts`` where the caller has them (one point, many sets)."""
+    D = deformation_parts(q_static, amplitude)
     I0 = np.diag(ref.I0)
-    e = float(np.max(np.linalg.norm(inertia_bound(ref, model, D), axis=0) / I0))
+    e = float(np.max(np.linalg.norm(inertia_bound(ref, model, D, parts), axis=0) / I0))
     if ref.on("coupling") and not model.on("coupling"):
         om = np.sqrt(np.abs(ref.eigenvalues))
         h = momentum_exchange(ref.W3k, om, amplitude, q_static, response_time(om.min() / (2 * np.pi), s))
@@ -327,6 +346,7 @@ def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff, excitat
     amplitude = modal_amplitude(excitation, q_max, q_ref)
     mix = mixing(body, a, s, q_max, sigma_allow, amplitude)
     widening = exact_widening(body, a, s)
+    parts = None if stiff else inertia_parts(ref, deformation_parts(q_ref, amplitude))  # shared by the sets
     out = np.zeros((len(sets), len(KINDS)))
     for i, (model, (_, terms)) in enumerate(zip(models, sets)):
         if set(terms) == set(ref.terms):
@@ -336,7 +356,7 @@ def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff, excitat
                   0.0 if model.on("cor_coupling") or not ref.on("cor_coupling") else mix,
                   static_error(body, q, q_ref, q_max, sigma_allow,
                                widening if ref.on("cf1") and not model.on("cf1") else 0.0),
-                  0.0 if stiff else rigid_error(ref, model, q_ref, amplitude, s))
+                  0.0 if stiff else rigid_error(ref, model, q_ref, amplitude, s, parts))
     return out
 
 

@@ -26,6 +26,7 @@ from ``tall`` instead: ``tall[t]`` holds column t of every block, so
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -110,10 +111,12 @@ def build_model(body: FlexibleBody, terms, damping=0.0, G: np.ndarray | None = N
     need_w3 = any(t in terms for t in ("coupling", "cor_coupling"))
     Sbar = np.array(ints.Sbar) if need_w2 else np.zeros((3, 3, nf, nf))
     W3k = ints.W3().reshape(3, nf, nf) if need_w3 else np.zeros((3, nf, nf))
-    return Model(terms=terms, I0=np.array(body.I0), Ibar=np.array(ints.Ibar), Sbar=np.ascontiguousarray(Sbar),
-                 W3k=np.ascontiguousarray(W3k), eigenvalues=np.array(body.eigenvalues),
+    own = functools.partial(np.array, dtype=float, order="C")  # a writeable C-ordered copy: one compiled
+    # signature of the kernels whatever the body's arrays are (read-only as read, views of a mode subset)
+    return Model(terms=terms, I0=own(body.I0), Ibar=own(ints.Ibar), Sbar=np.ascontiguousarray(Sbar),
+                 W3k=np.ascontiguousarray(W3k), eigenvalues=own(body.eigenvalues),
                  damping=2 * zeta * np.sqrt(np.abs(body.eigenvalues)),
-                 G=np.zeros((6, nf, nf)) if G is None else np.ascontiguousarray(G, dtype=float))
+                 G=np.zeros((6, nf, nf)) if G is None else own(G))
 
 
 def product_blocks(Sbar: np.ndarray, skew: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -245,10 +245,14 @@ def inertia_parts(ref: Model, D: np.ndarray) -> dict[str, np.ndarray]:
     return parts
 
 
-def inertia_bound(ref: Model, model: Model, D: np.ndarray, parts: dict | None = None) -> np.ndarray:
+def inertia_bound(ref: Model, model: Model, D: np.ndarray) -> np.ndarray:
     """Elementwise bound (3, 3) of ``(I_TT - C C^T)`` of ``ref`` minus that of ``model`` over every deformation
-    ``sum_i +-D[i]``: the ``inertia_parts`` (given, or taken here) of the groups model leaves out."""
-    parts = inertia_parts(ref, D) if parts is None else parts
+    ``sum_i +-D[i]``: the ``inertia_parts`` of the groups model leaves out."""
+    return _left_out(inertia_parts(ref, D), model)
+
+
+def _left_out(parts: dict[str, np.ndarray], model: Model) -> np.ndarray:
+    """The sum of the ``inertia_parts`` of the groups ``model`` does not carry."""
     bound = np.zeros((3, 3))
     for group, part in parts.items():
         if not model.on(group):
@@ -281,9 +285,9 @@ def rigid_error(ref: Model, model: Model, q_static: np.ndarray, amplitude: np.nd
     amplitude (any signs), and without the W3 group the internal angular momentum the vibrating modes exchange
     with the rigid motion within the response time (``momentum_exchange``), over ``I0_kk s``; ``parts``: the
     ``inertia_parts`` of ``deformation_parts`` where the caller has them (one point, many sets)."""
-    D = deformation_parts(q_static, amplitude)
+    parts = inertia_parts(ref, deformation_parts(q_static, amplitude)) if parts is None else parts
     I0 = np.diag(ref.I0)
-    e = float(np.max(np.linalg.norm(inertia_bound(ref, model, D, parts), axis=0) / I0))
+    e = float(np.max(np.linalg.norm(_left_out(parts, model), axis=0) / I0))
     if ref.on("coupling") and not model.on("coupling"):
         om = np.sqrt(np.abs(ref.eigenvalues))
         h = momentum_exchange(ref.W3k, om, amplitude, q_static, response_time(om.min() / (2 * np.pi), s))

@@ -26,7 +26,6 @@ from ``tall`` instead: ``tall[t]`` holds column t of every block, so
 """
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -34,7 +33,7 @@ import numpy as np
 
 from ..body import FlexibleBody
 from ..errors import FFRFError
-from ..terms import IDS, is_lagrangian, needed_invariants, ordered
+from ..terms import GROUPS, IDS, is_lagrangian, needed_invariants, ordered
 
 N_ROT = 7  # quaternion (4) and angular velocity (3) lead the state vector
 STRIP = 4  # rows per strip of the kernels' block storage (kernels._dot4_axpy reads four rows at once)
@@ -73,9 +72,7 @@ class Model:
         2): strips of the upper halves of Sbar[k, k]; ``off`` (3, ~nf^2): strips of Sbar[a, b] for the cyclic
         (k, a, b), of W3k / 2 with W3 alone; both (3, 0) up to TALL_MAX modes, where ``tall`` (nf, 9 nf) holds
         the same blocks column by column (else (0, 0))."""
-        w3_alone = any(self.on(t) for t in ("coupling", "cor_coupling")) and \
-            not any(self.on(t) for t in ("inertia_quad", "cf2", "cor_quad"))
-        blocks = product_blocks(self.Sbar, 0.5 * self.W3k if w3_alone else None)
+        blocks = product_blocks(self.Sbar, None if _carries(self.terms, "W2") else 0.5 * self.W3k)  # zeros without W3
         if self.nf <= TALL_MAX:
             return np.zeros((3, 0)), np.zeros((3, 0)), tall_blocks(*blocks)
         return *compact_blocks(*blocks), np.zeros((0, 0))
@@ -107,16 +104,23 @@ def build_model(body: FlexibleBody, terms, damping=0.0, G: np.ndarray | None = N
     if zeta.shape != (nf,) or not np.all(np.isfinite(zeta)) or np.any(zeta < 0) or np.any(zeta > MAX_DAMPING):
         raise FFRFError(f"--damping: expected one or {nf} ratios between 0 and {MAX_DAMPING:g}, got "
                         f"{np.ravel(damping).tolist()[:6]}")
-    need_w2 = any(t in terms for t in ("inertia_quad", "cf2", "cor_quad"))
-    need_w3 = any(t in terms for t in ("coupling", "cor_coupling"))
-    Sbar = np.array(ints.Sbar) if need_w2 else np.zeros((3, 3, nf, nf))
-    W3k = ints.W3().reshape(3, nf, nf) if need_w3 else np.zeros((3, nf, nf))
-    own = functools.partial(np.array, dtype=float, order="C")  # a writeable C-ordered copy: one compiled
-    # signature of the kernels whatever the body's arrays are (read-only as read, views of a mode subset)
-    return Model(terms=terms, I0=own(body.I0), Ibar=own(ints.Ibar), Sbar=np.ascontiguousarray(Sbar),
-                 W3k=np.ascontiguousarray(W3k), eigenvalues=own(body.eigenvalues),
+    Sbar = np.array(ints.Sbar) if _carries(terms, "W2") else np.zeros((3, 3, nf, nf))
+    W3k = ints.W3().reshape(3, nf, nf) if _carries(terms, "W3") else np.zeros((3, nf, nf))
+    return Model(terms=terms, I0=_owned(body.I0), Ibar=_owned(ints.Ibar), Sbar=np.ascontiguousarray(Sbar),
+                 W3k=np.ascontiguousarray(W3k), eigenvalues=_owned(body.eigenvalues),
                  damping=2 * zeta * np.sqrt(np.abs(body.eigenvalues)),
-                 G=np.zeros((6, nf, nf)) if G is None else own(G))
+                 G=np.zeros((6, nf, nf)) if G is None else _owned(G))
+
+
+def _carries(terms, group: str) -> bool:
+    """Whether ``terms`` hold a term of the invariants group ``group`` (terms.GROUPS)."""
+    return any(t in terms for t in GROUPS[group])
+
+
+def _owned(x) -> np.ndarray:
+    """A writeable C-ordered float copy: the compiled kernels see one signature whatever the body's arrays are
+    (read-only as read from a file, views of a mode subset)."""
+    return np.array(x, dtype=float, order="C")
 
 
 def product_blocks(Sbar: np.ndarray, skew: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -57,7 +57,7 @@ SAMPLE = 1e-3  # s between compared samples
 def _repeat_rhs(n, y, out, model):
     z3, zf = np.zeros(3), np.zeros((y.shape[0] - 7) // 2)
     for _ in range(n):
-        kernels.rhs_into(y, out, model, z3, zf, False, z3, z3)
+        kernels.rhs_into(y, out, model, z3, zf, kernels.FREE[0], z3, z3)
 
 
 @nb.njit(fastmath=kernels.FASTMATH)

@@ -59,7 +59,7 @@ OLD_PATH = ("import sys; from ffrf_advisor.sim.loads import Loads; Loads.compile
 @nb.njit
 def _rhs_loop(y, out, n, model, zero3, zf):
     for _ in range(n):
-        kernels.rhs_into(y, out, model, zero3, zf, False, zero3, zero3)
+        kernels.rhs_into(y, out, model, zero3, zf, kernels.FREE[0], zero3, zero3)
 
 
 @nb.njit
@@ -67,7 +67,7 @@ def _rhs_chain(y, out, n, model, zero3, zf):
     """As ``_rhs_loop``, each call reading the last one's result (as every stage of an integrator does; the
     update, 1e-300 of it, changes no state entry): the processor cannot overlap successive calls."""
     for _ in range(n):
-        kernels.rhs_into(y, out, model, zero3, zf, False, zero3, zero3)
+        kernels.rhs_into(y, out, model, zero3, zf, kernels.FREE[0], zero3, zero3)
         for i in range(4, y.shape[0]):
             y[i] += 1e-300 * out[i]
 

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import scipy
 
-from .kernels import HUGE, bare, jit, rhs_loaded as _f
+from .kernels import HUGE, bare, inline, jit, rhs_loaded as _f
 
 
 def _scipy_tableau():
@@ -52,7 +52,7 @@ EXPONENT = -1.0 / 8.0                          # error estimator of order 7
 OK, TOO_SMALL, NOT_FINITE, OVER_BUDGET = 0, 1, 2, 3
 
 
-@bare
+@inline
 def _rms(x, scale):
     s = 0.0
     for i in range(x.shape[0]):
@@ -79,14 +79,15 @@ def _initial_step(t0, y0, f0, t_end, rtol, atol, model, prog, fext, scratch, y1,
 
 
 @bare
-def _combine(coefficients, K, count, acc):
-    """acc = sum_{j < count} coefficients[j] K[j], term by term in j (a contiguous multiply-add per stage, so the
-    compiler vectorises over the state; the sum's order is the tableau's). The first nonzero term sets acc (no
-    zeroing pass: 3 % of a level-I run); a zero coefficient adds nothing to finite stages and is skipped (29 % of
-    the tableau's products; a non-finite stage fails the step anyway)."""
+def _combine(coefficients, K, acc):
+    """acc = sum_j coefficients[j] K[j], term by term in j (a contiguous multiply-add per stage, so the compiler
+    vectorises over the state; the sum's order is the tableau's). The first nonzero term sets acc (no zeroing
+    pass: 3 % of a level-I run); a zero coefficient adds nothing to finite stages and is skipped (29 % of the
+    tableau's products; a non-finite stage fails the step anyway), so a row of A reads only the stages before
+    its own (A is strictly lower triangular; the later rows of K are not yet set)."""
     n = acc.shape[0]
     first = True
-    for j in range(count):
+    for j in range(coefficients.shape[0]):
         c = coefficients[j]
         if c == 0.0:
             continue
@@ -102,24 +103,23 @@ def _combine(coefficients, K, count, acc):
             acc[i] = 0.0
 
 
-@bare
-def _stages(t, y, h, K, first, last, model, prog, fext, scratch, ys):
-    """K[s] for s in [first, last) from the tableau's row s (K[0] given)."""
+@inline
+def _stage(t, y, h, K, s, model, prog, fext, scratch, ys):
+    """K[s] from the tableau's row s and the stages before it (inlined into the steps' loops over s)."""
     n = y.shape[0]
-    for s in range(first, last):
-        _combine(A[s], K, s, ys)
-        for i in range(n):
-            ys[i] = y[i] + h * ys[i]
-        _f(t + C[s] * h, ys, K[s], model, prog, fext, scratch)
+    _combine(A[s], K, ys)
+    for i in range(n):
+        ys[i] = y[i] + h * ys[i]
+    _f(t + C[s] * h, ys, K[s], model, prog, fext, scratch)
 
 
-@bare
+@inline
 def _error_norm(K, h, scale, a5, a3):
     """Hairer's combined estimate: |h| e5^2 / sqrt((e5^2 + 0.01 e3^2) n), e5 and e3 in the scale's norm (a5, a3:
     workspace)."""
     n = scale.shape[0]
-    _combine(E5, K, STAGES + 1, a5)
-    _combine(E3, K, STAGES + 1, a3)
+    _combine(E5, K, a5)
+    _combine(E3, K, a3)
     e5, e3 = 0.0, 0.0
     for i in range(n):
         e5 += (a5[i] / scale[i]) ** 2
@@ -129,7 +129,7 @@ def _error_norm(K, h, scale, a5, a3):
     return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * n)
 
 
-@bare
+@inline
 def _sample(t_old, h, y_old, y_new, K, DK, t_out, y_out, F):
     """The order-7 interpolant of the step at t_out (K holds the 16 stages, DK[r] = sum_s D[r, s] K[s]; F:
     workspace of 7)."""
@@ -184,8 +184,9 @@ def _steps(y, h, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scrat
                 return row, nfev, steps, TOO_SMALL, t
             t_new = min(t + h, t_end)
             h = t_new - t
-            _stages(t, y, h, K, 1, STAGES, model, prog, fext, scratch, ys)
-            _combine(B, K, STAGES, y_new)
+            for s in range(1, STAGES):
+                _stage(t, y, h, K, s, model, prog, fext, scratch, ys)
+            _combine(B, K, y_new)
             for i in range(n):
                 y_new[i] = y[i] + h * y_new[i]
             _f(t_new, y_new, K[STAGES], model, prog, fext, scratch)
@@ -205,10 +206,11 @@ def _steps(y, h, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scrat
         t_old, h_step = t, t_new - t
         steps += 1
         if row < t_out.shape[0] and t_out[row] <= t_new:
-            _stages(t_old, y, h_step, K, STAGES + 1, 16, model, prog, fext, scratch, ys)
+            for s in range(STAGES + 1, 16):
+                _stage(t_old, y, h_step, K, s, model, prog, fext, scratch, ys)
             nfev += 3
             for r in range(4):
-                _combine(D[r], K, 16, DK[r])
+                _combine(D[r], K, DK[r])
             while row < t_out.shape[0] and t_out[row] <= t_new:
                 _sample(t_old, h_step, y, y_new, K, DK, t_out[row], out[row], F)
                 row += 1

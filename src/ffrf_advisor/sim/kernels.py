@@ -22,6 +22,10 @@ CF1, INERTIA_LIN, COR1, INERTIA_QUAD, CF2, COR_QUAD, COUPLING, COR_COUPLING, GEO
 FAIL_NONE, FAIL_NONFINITE, FAIL_QUATERNION = 0, 1, 2
 QUATERNION_TOL = 1e-2  # |p| - 1 after one step beyond which the step has failed
 HUGE = 1e150           # any state entry beyond this counts as overflow
+# FREE[0]: ``prescribed = False`` of rhs_into (a free body) as a value read at run time, which LLVM still folds:
+# numba compiles a callee once more for each literal argument of a call, and a literal False cost a second
+# compilation of the whole right-hand side (about 10 s of a fresh install's first simulation).
+FREE = np.zeros(1, dtype=np.bool_)
 SYM_K = np.array([0, 1, 2, 0, 0, 1])
 SYM_L = np.array([0, 1, 2, 1, 2, 2])
 
@@ -35,7 +39,9 @@ jit = nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 # and about 20 % of the full set's. Their arrays are borrowed from a caller that owns them (numpy's, or a
 # ``jit`` function's allocations), so nothing needs counting; they must not allocate or return arrays.
 bare = nb.njit(cache=True, nogil=True, fastmath=FASTMATH, _nrt=False)
-inline = nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")  # small helpers, inlined
+# Small helpers and thin layers are inlined into their callers: numba links every function it calls into a
+# compiled function and optimises and emits that code again, so each layer above rhs_into compiles it once more.
+inline = nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 _strip_start = inline(strip_start)
 
 
@@ -335,7 +341,7 @@ def rhs_into(y, out, model, tau, fext, prescribed, wp, wdp):
     out[3] = 0.5 * (p[0] * w[2] + p[1] * w[1] - p[2] * w[0])
 
 
-@bare
+@inline
 def loads_at(t, prog, tau, w, wd):
     """Torque and prescribed (w, w') at t from ``prog`` = [tau0 (3), pulse, W (3), ramp, prescribed flag]:
     tau = tau0 sin^2(pi t / pulse) for t < pulse (pulse = inf: tau0), w = W profile(t / ramp) (theory 10)."""
@@ -352,7 +358,7 @@ def loads_at(t, prog, tau, w, wd):
         wd[k] = prog[4 + k] * gd
 
 
-@bare
+@inline
 def rhs_loaded(t, y, out, model, prog, fext, scratch):
     """``rhs_into`` at time t with the loads of the packed LoadProgram ``prog`` (sim.loads) and constant modal
     forces ``fext``; ``scratch``: three 3-vectors."""
@@ -372,9 +378,9 @@ def jacobian_into(y, h, J, model):
     x, up, down = y.copy(), np.empty(n), np.empty(n)
     for j in range(m):
         x[4 + j] = y[4 + j] + h[j]
-        rhs_into(x, up, model, zero3, zf, False, zero3, zero3)
+        rhs_into(x, up, model, zero3, zf, FREE[0], zero3, zero3)
         x[4 + j] = y[4 + j] - h[j]
-        rhs_into(x, down, model, zero3, zf, False, zero3, zero3)
+        rhs_into(x, down, model, zero3, zf, FREE[0], zero3, zero3)
         x[4 + j] = y[4 + j]
         for i in range(m):
             J[i, j] = (up[4 + i] - down[4 + i]) / (2.0 * h[j])
@@ -412,7 +418,7 @@ def store_row(out, row, y):
         out[row, i] = y[i]
 
 
-@bare
+@inline
 def _check(bad, p_norm):
     """Failure code of a step: ``bad`` (a state entry not finite or beyond HUGE), or a quaternion norm that left 1."""
     if bad:
@@ -444,7 +450,7 @@ def _rk4_steps(y, h, nsteps, every, lie, out, model, zero3, zf, ys, k, th, theta
     """``rk4_loop``'s steps from y (advanced in place) in its workspace (ys, k, th, theta)."""
     n = y.shape[0]
     for step in range(nsteps):
-        rhs_into(y, k[0], model, zero3, zf, False, zero3, zero3)
+        rhs_into(y, k[0], model, zero3, zf, FREE[0], zero3, zero3)
         for j in range(3):
             th[0, j] = y[4 + j]
         for i in range(1, 4):
@@ -455,7 +461,7 @@ def _rk4_steps(y, h, nsteps, every, lie, out, model, zero3, zf, ys, k, th, theta
                 for j in range(3):
                     theta[j] = c * th[i - 1, j]
                 _rotate_by(y, theta, ys)
-            rhs_into(ys, k[i], model, zero3, zf, False, zero3, zero3)
+            rhs_into(ys, k[i], model, zero3, zf, FREE[0], zero3, zero3)
             if lie:
                 _dexpinv(theta, ys[4:7], th[i])
         bad = False

@@ -194,7 +194,8 @@ def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, kept)
 def _step(t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, Jq, f0, fj, ym, R):
     """One midpoint step from y into Y, J taken at its start when ``fresh`` (else M is kept from an earlier
     step, and taken here only if the iteration on it fails): (failure code, evaluations, whether the next step
-    takes J again)."""
+    takes J again). Flags reach the callees as runtime values (``fresh``, False where the retry passes it):
+    numba would compile a callee once more for a literal True or False."""
     n = y.shape[0]
     tm = t + 0.5 * h
     rhs_loaded(tm, y, f0, model, prog, fext, scratch)
@@ -206,7 +207,7 @@ def _step(t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, Jq, f0, fj, 
     nfev += iterations
     if not fresh and code != OK and code != QUATERNION:
         _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, Jq, fj, ym)
-        code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, False)
+        code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, fresh)
         nfev += n + iterations
     return code, nfev, theta > THETA_REFRESH
 
@@ -230,7 +231,7 @@ def midpoint_loop(y0, h, nsteps, every, out, model, prog, fext):
 def _steps(y, Y, h, nsteps, every, out, model, prog, fext, scratch, M, piv, W, Jq, f0, fj, ym, R):
     """``midpoint_loop``'s steps from y (advanced in place) in its workspace; its return values."""
     n = y.shape[0]
-    nfev, fresh = 0, True
+    nfev, fresh = 0, nsteps > 0  # True where a step is taken, as a runtime value (see _step)
     for step in range(nsteps):
         code, evaluations, fresh = _step(step * h, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, Jq, f0, fj,
                                          ym, R)

@@ -18,6 +18,8 @@ given and ``q'' = rhs_f - C^T w'``.
 """
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
 from ..body import pair_weights  # G(w) = sum_c weights_c(w) G_c from the six G_kl (theory 9)
@@ -58,14 +60,21 @@ def linear_inertia(m: Model, q: np.ndarray) -> np.ndarray:
     return _identity_times(2 * np.trace(C1, axis1=-2, axis2=-1)) - C1 - np.swapaxes(C1, -1, -2)
 
 
-def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray, pairs: bool = False) -> np.ndarray:
+def sbar_times(m: Model, r: np.ndarray) -> np.ndarray:
+    """``Sbar_ab r`` (..., 3, 3, nf) for every pair (a, b): one BLAS product."""
+    return np.tensordot(r, m.Sbar, axes=([-1], [3]))
+
+
+def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray, pairs: bool = False,
+                      Sr: np.ndarray | None = None) -> np.ndarray:
     """``tr(G) I - G`` with the symmetrised ``G[a, b] = 0.5 (q^T Sbar_ab r + r^T Sbar_ab q)``.
 
     ``q = r`` gives ``J2 = Qf^T W2 Qf``; ``(q', q)`` gives half of ``dJ2/dt``. ``q`` and ``r`` broadcast
     against each other; ``pairs``: every pair of a row of q (n, nf) and a row of r (k, nf), (n, k, 3, 3), as
-    ``q[:, None], r[None, :]`` would give, by a second BLAS product instead of a broadcast sum.
+    ``q[:, None], r[None, :]`` would give, by a second BLAS product instead of a broadcast sum; ``Sr``:
+    ``sbar_times(m, r)`` where the caller has it.
     """
-    Sr = np.tensordot(r, m.Sbar, axes=([-1], [3]))  # (..., 3, 3, nf): Sbar_ab r, one BLAS product
+    Sr = sbar_times(m, r) if Sr is None else Sr
     G = np.tensordot(q, Sr, axes=([1], [3])) if pairs else np.einsum("...r,...abr->...ab", q, Sr)
     G = 0.5 * (G + np.swapaxes(G, -1, -2))
     return _identity_times(np.trace(G, axis1=-2, axis2=-1)) - G
@@ -76,38 +85,63 @@ def coupling_matrix(m: Model, q: np.ndarray) -> np.ndarray:
     return np.tensordot(q, m.W3k, axes=([-1], [1]))
 
 
-def inertia(m: Model, q: np.ndarray) -> np.ndarray:
-    """``I_TT`` of the term set: I0, plus W1 Qf with inertia_lin, plus J2 with inertia_quad."""
+def inertia(m: Model, q: np.ndarray, Sq: np.ndarray | None = None) -> np.ndarray:
+    """``I_TT`` of the term set: I0, plus W1 Qf with inertia_lin, plus J2 with inertia_quad (``Sq``:
+    ``sbar_times(m, q)`` where the caller has it)."""
     J = np.broadcast_to(np.asarray(m.I0, float), (*q.shape[:-1], 3, 3)).copy()
     if m.on("inertia_lin"):
         J += linear_inertia(m, q)
     if m.on("inertia_quad"):
-        J += quadratic_inertia(m, q, q)
+        J += quadratic_inertia(m, q, q, Sr=Sq)
     return J
 
 
-def rotational_force(m: Model, q, qd, w, tau) -> np.ndarray:
-    """Right side of the rotational equations: torque, gyroscopic and Coriolis terms of the set."""
-    f = tau - cross(w, mv(inertia(m, q), w))
+class Deformed:
+    """The pieces of the terms that depend on the modal coordinates q alone (a state, or a batch of them), each
+    computed once, when first used, and shared by the rotational and flexible equations: ``Sq = Sbar q`` (the
+    W2 terms: inertia_quad, cor_quad, cf2), ``J = I_TT`` and ``C = Qf^T W3``."""
+
+    def __init__(self, m: Model, q: np.ndarray):
+        self.m, self.q = m, q
+
+    @cached_property
+    def Sq(self) -> np.ndarray:
+        return sbar_times(self.m, self.q)
+
+    @cached_property
+    def J(self) -> np.ndarray:
+        return inertia(self.m, self.q, self.Sq if self.m.on("inertia_quad") else None)
+
+    @cached_property
+    def C(self) -> np.ndarray:
+        return coupling_matrix(self.m, self.q)
+
+
+def rotational_force(m: Model, q, qd, w, tau, d: Deformed | None = None) -> np.ndarray:
+    """Right side of the rotational equations: torque, gyroscopic and Coriolis terms of the set (``d``: the
+    Deformed pieces at q where the caller has them)."""
+    d = Deformed(m, q) if d is None else d
+    f = tau - cross(w, mv(d.J, w))
     if m.on("cor1"):
         f -= mv(linear_inertia(m, qd), w)
     if m.on("cor_quad"):
-        f -= 2 * mv(quadratic_inertia(m, qd, q), w)
+        f -= 2 * mv(quadratic_inertia(m, qd, q, Sr=d.Sq), w)
     if m.on("cor_coupling"):
-        f -= cross(w, mv(coupling_matrix(m, q), qd))
+        f -= cross(w, mv(d.C, qd))
     return f
 
 
-def flexible_force(m: Model, q, qd, w, fext) -> np.ndarray:
-    """Right side of the flexible equations: loads, stiffness, damping, centrifugal and Coriolis terms."""
+def flexible_force(m: Model, q, qd, w, fext, d: Deformed | None = None) -> np.ndarray:
+    """Right side of the flexible equations: loads, stiffness, damping, centrifugal and Coriolis terms (``d``:
+    the Deformed pieces at q where the caller has them)."""
+    d = Deformed(m, q) if d is None else d
     f = fext - m.eigenvalues * q - m.damping * qd
     ww = np.einsum("...k,...l->...kl", w, w)
     w2 = np.einsum("...k,...k->...", w, w)[..., None]
     if m.on("cf1"):
         f = f + w2 * np.einsum("mmr->r", m.Ibar) - np.einsum("...kl,klr->...r", ww, m.Ibar)
     if m.on("cf2"):
-        Sq = np.tensordot(q, m.Sbar, axes=([-1], [3]))  # (..., 3, 3, nf): Sbar[a, b] q, one BLAS product
-        f = f + w2 * np.einsum("...mmr->...r", Sq) - np.einsum("...kl,...lkr->...r", ww, Sq)
+        f = f + w2 * np.einsum("...mmr->...r", d.Sq) - np.einsum("...kl,...lkr->...r", ww, d.Sq)
     if m.on("cor_coupling"):
         f = f - 2 * np.einsum("...ks,...k->...s", coupling_matrix(m, qd), w)
     if m.on("geo_stiff"):
@@ -119,12 +153,12 @@ def flexible_force(m: Model, q, qd, w, fext) -> np.ndarray:
 def accelerations(m: Model, q, qd, w, tau, fext):
     """(w', q'') of the free body: block solve, Schur complement on the 3 x 3 block with coupling. Every
     argument may carry leading batch axes (states side by side)."""
-    fr, ff = rotational_force(m, q, qd, w, tau), flexible_force(m, q, qd, w, fext)
-    J = inertia(m, q)
+    d = Deformed(m, q)
+    fr, ff = rotational_force(m, q, qd, w, tau, d), flexible_force(m, q, qd, w, fext, d)
     if not m.on("coupling"):
-        return _solve(J, fr), ff
-    C = coupling_matrix(m, q)
-    wd = _solve(J - C @ np.swapaxes(C, -1, -2), fr - mv(C, ff))
+        return _solve(d.J, fr), ff
+    C = d.C
+    wd = _solve(d.J - C @ np.swapaxes(C, -1, -2), fr - mv(C, ff))
     return wd, ff - np.einsum("...ks,...k->...s", C, wd)
 
 

@@ -3,6 +3,8 @@ Python implicit midpoint rule to round-off, the load shapes against their Python
 rule's phase error against its exact value."""
 from __future__ import annotations
 
+import ast
+import inspect
 from pathlib import Path
 
 import numpy as np
@@ -119,3 +121,35 @@ def test_an_over_budget_compiled_run_fails_and_says_so(beam, monkeypatch):
     run = integrate(model, initial_state(model, (0, 0, 30.0), np.full(body.nf, 1e-3)), 0.03, "dop853",
                     rtol=1e-10, atol=1e-16)
     assert run.failed and "work budget of 1000 right-hand sides" in run.reason and len(run.t) >= 1
+
+
+
+def _literal(arg: ast.expr, constants: set[str]) -> bool:
+    """An argument numba types as a literal: an int or bool constant (or its negative), or a module-level one
+    (a float is typed float64: DOP853's start at t = 0.0 compiled once, numba's compile log showed)."""
+    if isinstance(arg, ast.UnaryOp):
+        arg = arg.operand
+    return (isinstance(arg, ast.Constant) and isinstance(arg.value, (bool, int))
+            or isinstance(arg, ast.Name) and arg.id in constants)
+
+
+def test_no_compiled_call_passes_a_literal_argument():
+    """numba compiles a callee once more, specialised, for each literal argument a compiled caller passes it (a
+    literal prescribed=False had compiled the whole right-hand side twice, about 10 s of a fresh install's first
+    simulation): no call of a kernel that is not inlined passes a constant or a module-level int or bool. The
+    modules' Python-level code calls no kernel (a call from Python is typed by value, never as a literal)."""
+    from numba.core.registry import CPUDispatcher
+
+    from ffrf_advisor.sim import dop853, midpoint
+    found = []
+    for module in (kernels, dop853, midpoint):
+        names = vars(module)
+        called = {n for n, f in names.items() if isinstance(f, CPUDispatcher)
+                  and f.targetoptions.get("inline", "never") == "never"}
+        constants = {n for n, v in names.items() if isinstance(v, (bool, int))}
+        assert "rhs_into" in called or module is not kernels
+        tree = ast.parse(inspect.getsource(module))
+        found += [f"{module.__name__}:{node.lineno} {node.func.id}" for node in ast.walk(tree)
+                  if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in called
+                  and any(_literal(a, constants) for a in node.args)]
+    assert not found, found

@@ -123,9 +123,12 @@ def test_modes_in_band_are_kept_and_a_high_f_max_keeps_every_mode(advised):
     a, loads, adv = advised
     for m in adv.modes:
         inside = any(m.f_hz <= adv.band * s.f_exc for s in adv.scenes)
-        assert m.keep == (inside or m.participation > adv.tolerance or "spun" in m.reason)
+        assert m.keep == (inside or m.participation > adv.tolerance or m.rule == "spun")
+        assert m.decision == (f"keep ({m.rule})" if m.keep else "drop") and bool(m.rule) == m.keep
+        assert (m.rule != "band" or inside) and (m.rule != "share" or m.participation > adv.tolerance)
     wide = advise_modes(a, f_max=1e6, loads=loads)
     assert wide.kept == tuple(range(a.body.nf)) and all(m.reason.startswith("keep: in band") for m in wide.modes)
+    assert {m.decision for m in wide.modes} == {"keep (band)"}
 
 
 def test_response_factors_equal_an_integrated_oscillator():

@@ -178,7 +178,8 @@ def scene_demands(a: Analysis, names, tolerance: float, f_max: float | None = No
 @dataclass(frozen=True)
 class ModeChoice:
     """One mode's decision: its largest share of an applied case's static energy and of a case's peak stress
-    (NaN where unknown), kept or dropped and why."""
+    (NaN where unknown), kept or dropped, the rule that kept it (``rule``: "started", "band", "share" or
+    "spun"; "" when dropped) and the reason in words."""
 
     mode: int
     f_hz: float
@@ -186,13 +187,12 @@ class ModeChoice:
     stress_share: float
     keep: bool
     reason: str
+    rule: str = ""
 
     @property
     def decision(self) -> str:
-        """'keep (started)', 'keep (band)', 'keep (spun)', 'keep (share)' or 'drop'."""
-        if not self.keep:
-            return "drop"
-        return "keep (" + next(w for w in ("started", "band", "spun", "share") if w in self.reason) + ")"
+        """'keep (started)', 'keep (band)', 'keep (share)', 'keep (spun)' or 'drop'."""
+        return f"keep ({self.rule})" if self.keep else "drop"
 
 
 @dataclass(frozen=True)
@@ -418,8 +418,8 @@ def _widened(kept, residual, modes: list, scenes, loads: InertiaLoads, setting: 
             return kept, predicted
         worst = max(bad, key=lambda p: p[2])
         k = max(dropped, key=lambda k: worst[3][k])
-        modes[k] = replace(modes[k], keep=True, reason=f"keep: spun error {worst[2]:.2g} > {tol:g} without it (the "
-                                                       "spin softens the body, its rise loads the deflection)")
+        modes[k] = replace(modes[k], keep=True, rule="spun", reason=f"keep: spun error {worst[2]:.2g} > {tol:g} "
+                           "without it (the spin softens the body, its rise loads the deflection)")
         kept = tuple(sorted((*kept, k)))
 
 
@@ -443,16 +443,16 @@ def _choice(k: int, body, scenes, p, share, applied, tol: float, band: float) ->
     started = [s.label for s in scenes if k in s.started]
     inside = [s for s in scenes if f <= band * s.f_exc]
     if started:
-        keep, reason = True, f"keep: started by {started[0]}"
+        rule, reason = "started", f"keep: started by {started[0]}"
     elif inside:
         s = max(inside, key=lambda s: s.f_exc)
-        keep, reason = True, f"keep: in band ({f:.4g} <= {band:g} x {s.f_exc:.4g} Hz, {s.excited_by} of {s.label})"
+        rule, reason = "band", f"keep: in band ({f:.4g} <= {band:g} x {s.f_exc:.4g} Hz, {s.excited_by} of {s.label})"
     elif np.isfinite(pk) and pk > tol:
-        keep, reason = True, f"keep: static energy share {pk:.2g} > {tol:g} of an applied load case"
+        rule, reason = "share", f"keep: static energy share {pk:.2g} > {tol:g} of an applied load case"
     else:
-        keep, reason = False, ("drop: out of band, " + (f"static energy share {pk:.2g} <= {tol:g}"
-                                                        if np.isfinite(pk) else "share unknown (no compliance)"))
-    return ModeChoice(k, f, float(pk), float(sk), keep, reason)
+        rule, reason = "", ("drop: out of band, " + (f"static energy share {pk:.2g} <= {tol:g}"
+                                                     if np.isfinite(pk) else "share unknown (no compliance)"))
+    return ModeChoice(k, f, float(pk), float(sk), bool(rule), reason, rule)
 
 
 DEPENDENT = 1e-6  # share of a residual vector's squared M-norm below which what it adds is no new direction

@@ -303,14 +303,16 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
     ref_terms = reference_terms(body)
     ref = build_model(body, ref_terms)
     models = [build_model(body, terms) for _, terms in sets]
-    own = [m for m, (_, terms) in zip(models, sets) if set(terms) != set(ref.terms)]  # the others: errors 0
+    own = [i for i, (_, terms) in enumerate(sets) if set(terms) != set(ref.terms)]  # the others: errors 0
     points = [(i_axis, np.asarray(a, float) / np.linalg.norm(a), s)
               for i_axis, a in enumerate(axes) for s in speeds if s > 0]
-    spectra, per = linearised_spectra([(m, a, s) for _, a, s in points for m in (ref, *own)]), 1 + len(own)
+    per = 1 + len(own)
+    spectra = linearised_spectra([(m, a, s) for _, a, s in points for m in (ref, *(models[i] for i in own))])
     errors = np.zeros((len(sets), len(KINDS)))
     where = np.zeros((len(sets), len(KINDS)), dtype=int)
     for k, (i_axis, a, s) in enumerate(points):
-        e = _at(body, ref, models, sets, a, s, q_max, sigma_allow, stiff, excitation, spectra[k * per:(k + 1) * per])
+        ref_spectrum, *rest = spectra[k * per:(k + 1) * per]
+        e = _at(body, ref, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, dict(zip(own, rest)))
         worse = e > errors
         errors = np.where(worse, e, errors)
         where = np.where(worse, i_axis, where)
@@ -342,20 +344,19 @@ def linearised_spectra(tasks: list[tuple[Model, np.ndarray, float]]) -> list[tup
         return list(pool.map(lambda task: modal_spectrum(*task), tasks))
 
 
-def _at(body, ref: Model, models, sets, a, s, q_max, sigma_allow, stiff, excitation, spectra) -> np.ndarray:
-    """(sets, KINDS) predictions at one spin s about one axis a; ``spectra``: ``modal_spectrum`` at (a, s) of
-    the reference, then of each set whose terms are not the reference's, in order."""
-    (f_ref, V_ref, q_ref), *own = spectra
-    own = iter(own)
+def _at(body, ref: Model, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, spectra) -> np.ndarray:
+    """(sets, KINDS) predictions at one spin s about one axis a, from the ``modal_spectrum`` at (a, s) of the
+    reference and of each set by its index (``spectra``; a set missing there has the reference's terms: 0)."""
+    f_ref, V_ref, q_ref = ref_spectrum
     amplitude = modal_amplitude(excitation, q_max, q_ref)
     mix = mixing(body, a, s, q_max, sigma_allow, amplitude)
     widening = exact_widening(body, a, s)
     parts = None if stiff else inertia_parts(ref, deformation_parts(q_ref, amplitude))  # shared by the sets
-    out = np.zeros((len(sets), len(KINDS)))
-    for i, (model, (_, terms)) in enumerate(zip(models, sets)):
-        if set(terms) == set(ref.terms):
+    out = np.zeros((len(models), len(KINDS)))
+    for i, model in enumerate(models):
+        if i not in spectra:
             continue
-        f, V, q = next(own)
+        f, V, q = spectra[i]
         out[i] = (_matched_error(f_ref, V_ref, f, V),
                   0.0 if model.on("cor_coupling") or not ref.on("cor_coupling") else mix,
                   static_error(body, q, q_ref, q_max, sigma_allow,

@@ -7,9 +7,12 @@ import ast
 import inspect
 from pathlib import Path
 
+import numba as nb
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
+from ffrf_advisor.cli import app
 from ffrf_advisor.io import read_body
 from ffrf_advisor.sim import integrate as integ
 from ffrf_advisor.sim import kernels
@@ -153,3 +156,50 @@ def test_no_compiled_call_passes_a_literal_argument():
                   if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in called
                   and any(_literal(a, constants) for a in node.args)]
     assert not found, found
+
+
+def test_no_compiled_function_calls_the_right_hand_side_by_name():
+    """The compiled integrators call rhs_into through its address (kernels.call_rhs): called by name, numba links
+    it into every compiled caller and compiles it once more in each layer (3.5-4 s a layer, docs/simulate.md)."""
+    from ffrf_advisor.sim import dop853, midpoint
+    found = []
+    for module in (kernels, dop853, midpoint):
+        for function in ast.walk(ast.parse(inspect.getsource(module))):
+            if isinstance(function, ast.FunctionDef) and function.decorator_list:
+                found += [f"{module.__name__}:{node.lineno}" for node in ast.walk(function)
+                          if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "rhs_into"]
+    assert not found, found
+
+
+@pytest.mark.parametrize("terms", [("gyro0",), FULL], ids=["I", "IV"])
+@pytest.mark.parametrize("source", ["beam.ffrf.h5", "plate.ffrf.h5", "beam.ffinv.json", "beam modes 1, 3-5"])
+def test_every_model_is_packed_as_the_type_the_address_was_compiled_for(source, terms, tmp_path):
+    """call_rhs passes the packed model to rhs_into compiled for kernels.MODEL: models from an FE body, an
+    invariants file (read-only arrays as read) and a mode subset (views) are all packed as that type."""
+    if source.endswith(".ffinv.json"):
+        path = tmp_path / source
+        assert CliRunner().invoke(app, ["convert", str(BEAM), str(path)]).exit_code == 0
+        body = read_body(path)
+    elif source.startswith("beam modes"):
+        body = read_body(BEAM).with_modes(np.array([0, 2, 3, 4]))
+    else:
+        body = read_body(BEAM.parent / source)
+    assert nb.typeof(integ._compiled_model(build_model(body, terms))) == kernels.MODEL
+
+
+def test_the_right_hand_side_by_address_equals_it_by_name_and_refuses_other_types(beam):
+    """kernels.call_rhs gives rhs_into's result bit for bit; an argument of another type than the address was
+    compiled for (here a strided state) is a typing error naming call_rhs, not a call with a wrong layout."""
+    @nb.njit
+    def by_address(address, y, out, model, z3, zf):
+        kernels.call_rhs(address, y, out, model, z3, zf, kernels.FREE[0], z3, z3)
+
+    body, model = beam
+    y = initial_state(model, (1.0, 2.0, 300.0), np.full(model.nf, 1e-3))
+    compiled, z3, zf = integ._compiled_model(model), np.zeros(3), np.zeros(model.nf)
+    direct, through = np.empty_like(y), np.empty_like(y)
+    kernels.rhs_into(y, direct, compiled, z3, zf, False, z3, z3)
+    by_address(kernels.rhs_address(), y, through, compiled, z3, zf)
+    assert np.array_equal(direct, through)
+    with pytest.raises(nb.core.errors.TypingError, match="call_rhs"):
+        by_address(kernels.rhs_address(), np.repeat(y, 2)[::2], through, compiled, z3, zf)

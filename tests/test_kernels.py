@@ -164,7 +164,7 @@ def test_rk4_lie_stages_allocate_nothing(block37):
 
     def allocations(steps):
         before = rtsys.get_allocation_stats().alloc
-        kernels.rk4_loop(y0, 1e-5, steps, 1, True, out, compiled)
+        kernels.rk4_loop(kernels.rhs_address(), y0, 1e-5, steps, 1, True, out, compiled)
         return rtsys.get_allocation_stats().alloc - before
 
     nrt.memsys_enable_stats()

@@ -7,7 +7,7 @@ its dense output of order 7, step for step as scipy's ``solve_ivp(method=
 safety 0.9, no growth right after a rejection); the Butcher tableau is
 scipy's own (``scipy.integrate._ivp.dop853_coefficients``), not retyped.
 The differences are where the work goes: every stage calls
-``kernels.rhs_into`` inside the loop, the state is sampled on the output
+``kernels.rhs_into`` inside the loop (through its address, kernels.call_rhs), the state is sampled on the output
 grid as the steps pass (three more stages only for steps that hold a
 sample), and no step's interpolant is kept, so memory is the samples'.
 
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import scipy
 
-from .kernels import HUGE, bare, inline, jit, rhs_loaded as _f
+from .kernels import HUGE, bare, inline, jit, rhs_loaded as _f, store_row
 
 
 def _scipy_tableau():
@@ -60,8 +60,8 @@ def _rms(x, scale):
     return np.sqrt(s / x.shape[0])
 
 
-@jit
-def _initial_step(t0, y0, f0, t_end, rtol, atol, model, prog, fext, scratch, y1, f1):
+@inline
+def _initial_step(rhs, t0, y0, f0, t_end, rtol, atol, model, prog, fext, scratch, y1, f1):
     """scipy's ``select_initial_step`` for order 7 (one more evaluation)."""
     n = y0.shape[0]
     scale = atol + np.abs(y0) * rtol
@@ -70,7 +70,7 @@ def _initial_step(t0, y0, f0, t_end, rtol, atol, model, prog, fext, scratch, y1,
     h0 = min(h0, t_end - t0)
     for i in range(n):
         y1[i] = y0[i] + h0 * f0[i]
-    _f(t0 + h0, y1, f1, model, prog, fext, scratch)
+    _f(rhs, t0 + h0, y1, f1, model, prog, fext, scratch)
     for i in range(n):
         y1[i] = f1[i] - f0[i]
     d2 = _rms(y1, scale) / h0
@@ -104,13 +104,13 @@ def _combine(coefficients, K, acc):
 
 
 @inline
-def _stage(t, y, h, K, s, model, prog, fext, scratch, ys):
+def _stage(rhs, t, y, h, K, s, model, prog, fext, scratch, ys):
     """K[s] from the tableau's row s and the stages before it (inlined into the steps' loops over s)."""
     n = y.shape[0]
     _combine(A[s], K, ys)
     for i in range(n):
         ys[i] = y[i] + h * ys[i]
-    _f(t + C[s] * h, ys, K[s], model, prog, fext, scratch)
+    _f(rhs, t + C[s] * h, ys, K[s], model, prog, fext, scratch)
 
 
 @inline
@@ -150,8 +150,9 @@ def _sample(t_old, h, y_old, y_new, K, DK, t_out, y_out, F):
 
 
 @jit
-def integrate_dop853(y0, t_end, rtol, atol, t_out, budget, out, model, prog, fext):
-    """Integrate from 0 to t_end; row j of ``out`` is the state at t_out[j] (increasing, t_out[0] = 0).
+def integrate_dop853(rhs, y0, t_end, rtol, atol, t_out, budget, out, model, prog, fext):
+    """Integrate from 0 to t_end; row j of ``out`` is the state at t_out[j] (increasing, t_out[0] = 0); ``rhs``:
+    the right-hand side's address (kernels.rhs_address).
 
     Returns (rows written, evaluations, accepted steps, failure code, time reached).
     """
@@ -160,15 +161,15 @@ def integrate_dop853(y0, t_end, rtol, atol, t_out, budget, out, model, prog, fex
     K, DK = np.empty((16, n)), np.empty((4, n))
     ys, y_new, tmp, a5, a3, F = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(7)
     y = y0.copy()
-    _f(0.0, y, K[0], model, prog, fext, scratch)
-    h = _initial_step(0.0, y, K[0], t_end, rtol, atol, model, prog, fext, scratch, ys, tmp)
-    out[0] = y
-    return _steps(y, h, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scratch, K, DK, ys, y_new, tmp,
-                  a5, a3, F)
+    _f(rhs, 0.0, y, K[0], model, prog, fext, scratch)
+    h = _initial_step(rhs, 0.0, y, K[0], t_end, rtol, atol, model, prog, fext, scratch, ys, tmp)
+    store_row(out, 0, y)
+    return _steps(rhs, y, h, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scratch, K, DK, ys, y_new,
+                  tmp, a5, a3, F)
 
 
 @bare
-def _steps(y, h, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scratch, K, DK, ys, y_new, tmp, a5, a3,
+def _steps(rhs, y, h, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scratch, K, DK, ys, y_new, tmp, a5, a3,
            F):
     """``integrate_dop853``'s steps from t = 0 (y and K[0] = f(0, y) given, h the initial step) in its
     workspace; its return values."""
@@ -185,11 +186,11 @@ def _steps(y, h, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scrat
             t_new = min(t + h, t_end)
             h = t_new - t
             for s in range(1, STAGES):
-                _stage(t, y, h, K, s, model, prog, fext, scratch, ys)
+                _stage(rhs, t, y, h, K, s, model, prog, fext, scratch, ys)
             _combine(B, K, y_new)
             for i in range(n):
                 y_new[i] = y[i] + h * y_new[i]
-            _f(t_new, y_new, K[STAGES], model, prog, fext, scratch)
+            _f(rhs, t_new, y_new, K[STAGES], model, prog, fext, scratch)
             nfev += STAGES
             if nfev > budget:
                 return row, nfev, steps, OVER_BUDGET, t
@@ -207,7 +208,7 @@ def _steps(y, h, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scrat
         steps += 1
         if row < t_out.shape[0] and t_out[row] <= t_new:
             for s in range(STAGES + 1, 16):
-                _stage(t_old, y, h_step, K, s, model, prog, fext, scratch, ys)
+                _stage(rhs, t_old, y, h_step, K, s, model, prog, fext, scratch, ys)
             nfev += 3
             for r in range(4):
                 _combine(D[r], K, DK[r])

@@ -122,7 +122,7 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
     while done < nsteps and code == 0:
         n = min(chunk, nsteps - done)
         part = out[done // every:done // every + n // every + 1]  # its row 0: y, the last chunk's last row
-        steps, code = kernels.rk4_loop(y, h, n, every, lie, part, compiled)
+        steps, code = kernels.rk4_loop(kernels.rhs_address(), y, h, n, every, lie, part, compiled)
         rows = steps // every if code else n // every
         done += steps
         y = part[rows]
@@ -146,10 +146,11 @@ MIDPOINT_FAILURES = {1: REASONS[1], 2: REASONS[2], 3: "Newton iteration did not 
 
 def _midpoint_compiled(model, y0, h, nsteps, every, program) -> Run:
     """The implicit midpoint rule in compiled code (sim.midpoint; ``_MidpointStepper`` is its reference)."""
-    from . import midpoint
+    from . import kernels, midpoint
     out = np.empty((nsteps // every + 1, len(y0)))
+    compiled, address = _compiled_model(model), kernels.rhs_address()
     start = time.perf_counter()
-    steps, nfev, code = midpoint.midpoint_loop(y0, h, nsteps, every, out, _compiled_model(model), program,
+    steps, nfev, code = midpoint.midpoint_loop(address, y0, h, nsteps, every, out, compiled, program,
                                                np.zeros(model.nf))
     wall = time.perf_counter() - start
     rows = (steps - 1 if code else steps) // every + 1
@@ -258,14 +259,15 @@ DOP853_FAILURES = {1: "required step size is less than spacing between numbers",
 
 def _dop853_compiled(model, y0, t_end, rtol, atol, output_step, program) -> Run:
     """DOP853 in compiled code (sim.dop853), sampled on the output grid as it goes."""
-    from . import dop853
+    from . import dop853, kernels
     t = _output_times(t_end, output_step)
     out = np.empty((len(t), len(y0)))
     budget = work_budget(model, y0, t_end)
     atol = np.broadcast_to(np.asarray(atol, float), y0.shape).copy()
+    compiled, address = _compiled_model(model), kernels.rhs_address()
     start = time.perf_counter()
     rows, nfev, steps, code, t_reached = dop853.integrate_dop853(
-        y0, float(t_end), float(rtol), atol, t, budget, out, _compiled_model(model), program, np.zeros(model.nf))
+        address, y0, float(t_end), float(rtol), atol, t, budget, out, compiled, program, np.zeros(model.nf))
     wall = time.perf_counter() - start
     reason = (f"work budget of {budget} right-hand sides spent at t = {t_reached:.6g} (stiff, or blowing up)"
               if code == dop853.OVER_BUDGET else DOP853_FAILURES.get(code, ""))

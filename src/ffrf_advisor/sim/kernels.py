@@ -13,8 +13,12 @@ and W3 terms read each stored number once per evaluation.
 """
 from __future__ import annotations
 
+import functools
+
 import numba as nb
 import numpy as np
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from .model import N_ROT, STRIP, strip_start
 
@@ -40,7 +44,9 @@ jit = nb.njit(cache=True, nogil=True, fastmath=FASTMATH)
 # ``jit`` function's allocations), so nothing needs counting; they must not allocate or return arrays.
 bare = nb.njit(cache=True, nogil=True, fastmath=FASTMATH, _nrt=False)
 # Small helpers and thin layers are inlined into their callers: numba links every function it calls into a
-# compiled function and optimises and emits that code again, so each layer above rhs_into compiles it once more.
+# compiled function and optimises and emits that code again, so each layer compiles its callees once more (the
+# integrators call rhs_into itself by its address: ``call_rhs``). Large ones are not: LLVM's time grows faster than
+# a function's size (the midpoint rule's steps with every layer inlined took 25 s to compile against 10 s).
 inline = nb.njit(cache=True, nogil=True, fastmath=FASTMATH, inline="always")
 _strip_start = inline(strip_start)
 
@@ -358,29 +364,70 @@ def loads_at(t, prog, tau, w, wd):
         wd[k] = prog[4 + k] * gd
 
 
+F1, F2, F3, F4 = (nb.types.Array(nb.types.float64, ndim, "C") for ndim in (1, 2, 3, 4))
+# The numba type of the model tuple (sim.integrate._compiled_model): flags, I0, Ibar, diag, off, tall, lam, dmp, G and
+# the workspace; and rhs_into's argument types with it, for which ``rhs_address`` compiles it.
+MODEL = nb.types.Tuple((nb.types.Array(nb.types.int64, 1, "C"), F2, F3, F2, F2, F2, F1, F1, F3,
+                        nb.types.Tuple((F2, F2, F2, F2, F1, F1, F4, F3))))
+RHS_ARGS = (F1, F1, MODEL, F1, F1, nb.types.boolean, F1, F1)
+
+
+@functools.cache
+def rhs_address() -> int:
+    """The address of ``rhs_into`` compiled (or loaded from the cache) for RHS_ARGS, for ``call_rhs``.
+
+    The integrators call the right-hand side by this address, passed at run time, instead of by name: numba
+    links the code of every compiled function a compiled function calls by name into it, and LLVM optimises and
+    emits it once more in every caller, layer by layer: rhs_into (10 s to compile) cost 3.5-4 s again in each
+    layer of an integrator, 20 s in the midpoint rule's five (numba's compile events, 2026-11-26)."""
+    rhs_into.compile(RHS_ARGS)
+    result = rhs_into.overloads[RHS_ARGS]
+    return result.library.get_pointer_to_function(result.fndesc.llvm_func_name)
+
+
+@intrinsic
+def call_rhs(typingctx, address, y, out, model, tau, fext, prescribed, wp, wdp):
+    """``rhs_into(y, out, model, tau, fext, prescribed, wp, wdp)`` through ``address`` (``rhs_address``), in
+    numba's own calling convention; errors propagate as from a call by name. Typed only for RHS_ARGS, the types
+    the address was compiled for: any other argument type is a typing error, never a call with the wrong layout."""
+    if not isinstance(address, nb.types.Integer) or (y, out, model, tau, fext, prescribed, wp, wdp) != RHS_ARGS:
+        raise nb.core.errors.TypingError(f"call_rhs: expected an address and {RHS_ARGS}, got {model} and the rest "
+                                         "(sim.integrate._compiled_model builds the model)")
+
+    def codegen(context, builder, signature, args):
+        function = context.call_conv.get_function_type(nb.types.none, RHS_ARGS).as_pointer()
+        status, _ = context.call_conv.call_function(builder, builder.inttoptr(args[0], function), nb.types.none,
+                                                    RHS_ARGS, args[1:])
+        with cgutils.if_unlikely(builder, status.is_error):
+            context.call_conv.return_status_propagate(builder, status)
+        return context.get_dummy_value()
+    return nb.types.none(address, *RHS_ARGS), codegen
+
+
 @inline
-def rhs_loaded(t, y, out, model, prog, fext, scratch):
-    """``rhs_into`` at time t with the loads of the packed LoadProgram ``prog`` (sim.loads) and constant modal
-    forces ``fext``; ``scratch``: three 3-vectors."""
+def rhs_loaded(rhs, t, y, out, model, prog, fext, scratch):
+    """rhs_into (at the address ``rhs``) at time t with the loads of the packed LoadProgram ``prog`` (sim.loads)
+    and constant modal forces ``fext``; ``scratch``: three 3-vectors."""
     tau, w, wd = scratch
     loads_at(t, prog, tau, w, wd)
-    rhs_into(y, out, model, tau, fext, prog[8] != 0.0, w, wd)
+    call_rhs(rhs, y, out, model, tau, fext, prog[8] != 0.0, w, wd)
 
 
 @jit
-def jacobian_into(y, h, J, model):
+def jacobian_into(rhs, y, h, J, model):
     """The central-difference Jacobian of the rates of (w, q, q') (the entries after the quaternion, which does
     not enter them) of a free body without loads at the state y, with linearise.jacobian's steps ``h``:
-    ``J[i, j] = (f(y + h_j e_{4+j}) - f(y - h_j e_{4+j}))_{4+i} / (2 h_j)``."""
+    ``J[i, j] = (f(y + h_j e_{4+j}) - f(y - h_j e_{4+j}))_{4+i} / (2 h_j)``; ``rhs``: rhs_into's address
+    (``rhs_address``)."""
     n = y.shape[0]
     m = n - 4
     zero3, zf = np.zeros(3), np.zeros((n - N_ROT) // 2)
     x, up, down = y.copy(), np.empty(n), np.empty(n)
     for j in range(m):
         x[4 + j] = y[4 + j] + h[j]
-        rhs_into(x, up, model, zero3, zf, FREE[0], zero3, zero3)
+        call_rhs(rhs, x, up, model, zero3, zf, FREE[0], zero3, zero3)
         x[4 + j] = y[4 + j] - h[j]
-        rhs_into(x, down, model, zero3, zf, FREE[0], zero3, zero3)
+        call_rhs(rhs, x, down, model, zero3, zf, FREE[0], zero3, zero3)
         x[4 + j] = y[4 + j]
         for i in range(m):
             J[i, j] = (up[4 + i] - down[4 + i]) / (2.0 * h[j])
@@ -413,7 +460,8 @@ def _dexpinv(theta, w, out):
 
 @inline
 def store_row(out, row, y):
-    """out[row] = y, entry by entry (an array assignment needs numba's runtime, which ``bare`` code lacks)."""
+    """out[row] = y, entry by entry (an array assignment needs numba's runtime, which ``bare`` code lacks, and
+    compiles string code for its shape error: about 3 s in a fresh process)."""
     for i in range(y.shape[0]):
         out[row, i] = y[i]
 
@@ -429,8 +477,9 @@ def _check(bad, p_norm):
 
 
 @jit
-def rk4_loop(y0, h, nsteps, every, lie, out, model):
-    """Fixed-step RK4 of a free body (no loads); rows of ``out`` every ``every`` steps (row 0: y0).
+def rk4_loop(rhs, y0, h, nsteps, every, lie, out, model):
+    """Fixed-step RK4 of a free body (no loads); rows of ``out`` every ``every`` steps (row 0: y0); ``rhs``:
+    rhs_into's address (``rhs_address``).
 
     ``lie`` False: classical RK4 on the quaternion, normalised after each
     step. True: RKMK4, the quaternion advanced by ``p_n exp(Theta)`` with the
@@ -440,17 +489,17 @@ def rk4_loop(y0, h, nsteps, every, lie, out, model):
     """
     n = y0.shape[0]
     y = y0.copy()
-    out[0] = y
-    return _rk4_steps(y, h, nsteps, every, lie, out, model, np.zeros(3), np.zeros((n - N_ROT) // 2), np.empty(n),
+    store_row(out, 0, y)
+    return _rk4_steps(rhs, y, h, nsteps, every, lie, out, model, np.zeros(3), np.zeros((n - N_ROT) // 2), np.empty(n),
                       np.empty((4, n)), np.zeros((4, 3)), np.zeros(3))
 
 
 @bare
-def _rk4_steps(y, h, nsteps, every, lie, out, model, zero3, zf, ys, k, th, theta):
+def _rk4_steps(rhs, y, h, nsteps, every, lie, out, model, zero3, zf, ys, k, th, theta):
     """``rk4_loop``'s steps from y (advanced in place) in its workspace (ys, k, th, theta)."""
     n = y.shape[0]
     for step in range(nsteps):
-        rhs_into(y, k[0], model, zero3, zf, FREE[0], zero3, zero3)
+        call_rhs(rhs, y, k[0], model, zero3, zf, FREE[0], zero3, zero3)
         for j in range(3):
             th[0, j] = y[4 + j]
         for i in range(1, 4):
@@ -461,7 +510,7 @@ def _rk4_steps(y, h, nsteps, every, lie, out, model, zero3, zf, ys, k, th, theta
                 for j in range(3):
                     theta[j] = c * th[i - 1, j]
                 _rotate_by(y, theta, ys)
-            rhs_into(ys, k[i], model, zero3, zf, FREE[0], zero3, zero3)
+            call_rhs(rhs, ys, k[i], model, zero3, zf, FREE[0], zero3, zero3)
             if lie:
                 _dexpinv(theta, ys[4:7], th[i])
         bad = False

@@ -87,11 +87,12 @@ def compiled_jacobian(model: Model):
     callers that load numba anyway (verify's Campbell study); the advice keeps the plain-numpy one."""
     from . import kernels
     from .integrate import _compiled_model
-    compiled = _compiled_model(model)
+    compiled, address = _compiled_model(model), kernels.rhs_address()
 
     def jac(_, x: np.ndarray) -> np.ndarray:
         J = np.empty((len(x), len(x)))
-        kernels.jacobian_into(np.concatenate([(1.0, 0.0, 0.0, 0.0), x]), _difference_steps(model, x), J, compiled)
+        y = np.concatenate([(1.0, 0.0, 0.0, 0.0), x])
+        kernels.jacobian_into(address, y, _difference_steps(model, x), J, compiled)
         return J
     return jac
 

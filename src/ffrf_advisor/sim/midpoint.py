@@ -85,7 +85,7 @@ def _full(k, nf):
 
 
 @bare
-def _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, Jq, fj, ym):
+def _newton_inverse(rhs, tm, y, h, f0, model, prog, fext, scratch, M, piv, W, Jq, fj, ym):
     """W = S^-T, S the simplified-Newton matrix 1 - h/2 J on (p, w, q') with q eliminated (module docstring), J
     the forward-difference Jacobian of f at (tm, y) (f0 = f(tm, y)), and Jq = J_rq (its q columns); LU with
     partial pivoting in M; stored transposed, so applying it is a sum of contiguous columns (``_apply``)."""
@@ -100,7 +100,7 @@ def _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, Jq, fj,
         for i in range(n):
             ym[i] = y[i]
         ym[j] += d
-        rhs_loaded(tm, ym, fj, model, prog, fext, scratch)
+        rhs_loaded(rhs, tm, ym, fj, model, prog, fext, scratch)
         q_column = 7 <= j < 7 + nf  # joins the column of its q' (reduced index j): dq = h/2 dq'
         c = j if j < 7 + nf else j - nf
         scale = -0.25 * h * h / d if q_column else -0.5 * h / d
@@ -133,7 +133,7 @@ def _apply(W, r, x):
 
 
 @bare
-def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, kept):
+def _newton(rhs, tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, kept):
     """Y from the Euler predictor by the simplified Newton iteration on (p, w, q') with the inverse W and Jq of
     ``_newton_inverse`` (module docstring):
     (code, iterations, largest ratio of successive corrections). ``kept``: W is from an earlier step, and a
@@ -148,7 +148,7 @@ def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, kept)
     for it in range(NEWTON_MAX):
         for i in range(n):
             ym[i] = 0.5 * (y[i] + Y[i])
-        rhs_loaded(tm, ym, fj, model, prog, fext, scratch)
+        rhs_loaded(rhs, tm, ym, fj, model, prog, fext, scratch)
         for i in range(7):
             r[i] = Y[i] - y[i] - h * fj[i]
         for i in range(7, m):
@@ -191,31 +191,31 @@ def _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, kept)
 
 
 @bare
-def _step(t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, Jq, f0, fj, ym, R):
+def _step(rhs, t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, Jq, f0, fj, ym, R):
     """One midpoint step from y into Y, J taken at its start when ``fresh`` (else M is kept from an earlier
     step, and taken here only if the iteration on it fails): (failure code, evaluations, whether the next step
     takes J again). Flags reach the callees as runtime values (``fresh``, False where the retry passes it):
     numba would compile a callee once more for a literal True or False."""
     n = y.shape[0]
     tm = t + 0.5 * h
-    rhs_loaded(tm, y, f0, model, prog, fext, scratch)
+    rhs_loaded(rhs, tm, y, f0, model, prog, fext, scratch)
     nfev = 1
     if fresh:
-        _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, Jq, fj, ym)
+        _newton_inverse(rhs, tm, y, h, f0, model, prog, fext, scratch, M, piv, W, Jq, fj, ym)
         nfev += n
-    code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, not fresh)
+    code, iterations, theta = _newton(rhs, tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, not fresh)
     nfev += iterations
     if not fresh and code != OK and code != QUATERNION:
-        _newton_inverse(tm, y, h, f0, model, prog, fext, scratch, M, piv, W, Jq, fj, ym)
-        code, iterations, theta = _newton(tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, fresh)
+        _newton_inverse(rhs, tm, y, h, f0, model, prog, fext, scratch, M, piv, W, Jq, fj, ym)
+        code, iterations, theta = _newton(rhs, tm, y, h, Y, f0, model, prog, fext, scratch, W, Jq, fj, ym, R, fresh)
         nfev += n + iterations
     return code, nfev, theta > THETA_REFRESH
 
 
 @jit
-def midpoint_loop(y0, h, nsteps, every, out, model, prog, fext):
-    """``nsteps`` midpoint steps of size h from y0; rows of ``out`` every ``every`` steps (row 0: y0).
-    Returns (steps done, evaluations, failure code); the failed step's state is the last row written."""
+def midpoint_loop(rhs, y0, h, nsteps, every, out, model, prog, fext):
+    """``nsteps`` midpoint steps of size h from y0; rows of ``out`` every ``every`` steps (row 0: y0); ``rhs``: the
+    right-hand side's address (kernels.rhs_address). Returns (steps done, evaluations, failure code); the failed step's state is the last row written."""
     n = y0.shape[0]
     scratch = (np.empty(3), np.empty(3), np.empty(3))
     m = (n + 7) // 2
@@ -223,18 +223,18 @@ def midpoint_loop(y0, h, nsteps, every, out, model, prog, fext):
     Jq = np.empty((m, (n - 7) // 2))
     f0, fj, ym, R = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     y, Y = y0.copy(), np.empty(n)
-    out[0] = y
-    return _steps(y, Y, h, nsteps, every, out, model, prog, fext, scratch, M, piv, W, Jq, f0, fj, ym, R)
+    store_row(out, 0, y)
+    return _steps(rhs, y, Y, h, nsteps, every, out, model, prog, fext, scratch, M, piv, W, Jq, f0, fj, ym, R)
 
 
 @bare
-def _steps(y, Y, h, nsteps, every, out, model, prog, fext, scratch, M, piv, W, Jq, f0, fj, ym, R):
+def _steps(rhs, y, Y, h, nsteps, every, out, model, prog, fext, scratch, M, piv, W, Jq, f0, fj, ym, R):
     """``midpoint_loop``'s steps from y (advanced in place) in its workspace; its return values."""
     n = y.shape[0]
     nfev, fresh = 0, nsteps > 0  # True where a step is taken, as a runtime value (see _step)
     for step in range(nsteps):
-        code, evaluations, fresh = _step(step * h, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, Jq, f0, fj,
-                                         ym, R)
+        code, evaluations, fresh = _step(rhs, step * h, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, Jq, f0,
+                                         fj, ym, R)
         nfev += evaluations
         if code != OK:
             return step + 1, nfev, code

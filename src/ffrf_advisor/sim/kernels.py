@@ -26,9 +26,9 @@ CF1, INERTIA_LIN, COR1, INERTIA_QUAD, CF2, COR_QUAD, COUPLING, COR_COUPLING, GEO
 FAIL_NONE, FAIL_NONFINITE, FAIL_QUATERNION = 0, 1, 2
 QUATERNION_TOL = 1e-2  # |p| - 1 after one step beyond which the step has failed
 HUGE = 1e150           # any state entry beyond this counts as overflow
-# FREE[0]: ``prescribed = False`` of rhs_into (a free body) as a value read at run time, which LLVM still folds:
-# numba compiles a callee once more for each literal argument of a call, and a literal False cost a second
-# compilation of the whole right-hand side (about 10 s of a fresh install's first simulation).
+# FREE[0]: ``prescribed = False`` of rhs_into (a free body) as a value read at run time: numba types a literal
+# False as its own type, and compiles a callee once more for each literal argument of a call (a literal False had
+# cost a second compilation of the whole right-hand side, about 10 s, before it was called by address).
 FREE = np.zeros(1, dtype=np.bool_)
 SYM_K = np.array([0, 1, 2, 0, 0, 1])
 SYM_L = np.array([0, 1, 2, 1, 2, 2])

@@ -203,3 +203,37 @@ def test_the_right_hand_side_by_address_equals_it_by_name_and_refuses_other_type
     assert np.array_equal(direct, through)
     with pytest.raises(nb.core.errors.TypingError, match="call_rhs"):
         by_address(kernels.rhs_address(), np.repeat(y, 2)[::2], through, compiled, z3, zf)
+
+
+def test_on_compile_tells_once_while_numba_compiles_and_not_when_code_comes_from_the_cache(tmp_path, monkeypatch):
+    """kernels.on_compile calls back once, at the first compilation within it, never outside it, and not for a
+    function loaded from numba's cache (a later run: the note of the first run after installing is not shown)."""
+    (tmp_path / "cached_twice.py").write_text("import numba\n\n@numba.njit(cache=True)\ndef f(x):\n    return 2 * x\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import cached_twice
+    told = []
+    with kernels.on_compile(lambda: told.append("compiling")):
+        assert cached_twice.f(2) == 4  # compiled and written to the cache
+        assert nb.njit(lambda x: x + 1)(1) == 2  # compiled again: told already
+    assert nb.njit(lambda x: x + 3)(1) == 4 and told == ["compiling"]
+    with kernels.on_compile(lambda: told.append("again")):
+        again = nb.njit(cache=True)(cached_twice.f.py_func)  # a new dispatcher: loaded from the cache
+        assert again(3) == 6 and again.stats.cache_hits
+    assert told == ["compiling"]
+
+
+@pytest.mark.slow
+def test_the_first_simulation_after_installing_says_it_compiles_on_a_terminal(tmp_path):
+    """simulate on a terminal (rich's TTY_COMPATIBLE) with an empty numba cache notes that it compiles, the next
+    run loads the code and notes nothing; off a terminal no note (the one-line errors stay one line)."""
+    import os
+    import subprocess
+    import sys
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"), "TTY_COMPATIBLE": "1", "COLUMNS": "200"}
+    run = [sys.executable, "-m", "ffrf_advisor", "simulate", str(BEAM), "--t-end", "1e-4", "--omega0", "0,0,300"]
+    first, second = (subprocess.run(run, capture_output=True, text=True, env=env) for _ in range(2))
+    plain = subprocess.run(run, capture_output=True, text=True, env={**env, "TTY_COMPATIBLE": "0",
+                                                                    "NUMBA_CACHE_DIR": str(tmp_path / "other")})
+    assert first.returncode == second.returncode == plain.returncode == 0
+    assert "compiling the simulator (the first run after installing" in first.stderr
+    assert "compiling" not in second.stderr and "compiling" not in plain.stderr

@@ -11,6 +11,7 @@ import sys
 import time
 import warnings
 from collections.abc import MutableMapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Optional, get_args, get_origin
 
@@ -426,12 +427,25 @@ def _verification(analysis, body: Path, folder: Optional[Path], given: Optional[
     return study_json(study, str(body), figures)
 
 
+@contextmanager
+def _compile_note():
+    """A note on a terminal's stderr, as the progress bars appear there, when the simulator's code is compiled
+    rather than loaded from its cache (the first run after installing)."""
+    if not notes().is_terminal or notes().quiet:
+        yield
+        return
+    from .sim.kernels import on_compile
+    with on_compile(lambda: _note("compiling the simulator (the first run after installing: about half a minute; "
+                                  "later runs load it from the cache)")):
+        yield
+
+
 def _study(folder: Optional[Path], *args, **kwargs):
     """verify.study.run_study(*args, **kwargs) with a progress bar, and its figures written into ``folder``
     when given (report.verify_figures): (study, paths of the figures)."""
     from .report.console import step_bar
     from .verify.study import drift_curves, run_study
-    with step_bar(notes()) as progress:
+    with _compile_note(), step_bar(notes()) as progress:
         st = run_study(*args, progress=progress, **kwargs)
         if folder is None:
             return st, ()
@@ -641,7 +655,7 @@ def _mode_set_proof(result, advice, loads, names, figures: Optional[Path]):
     from .report.console import step_bar
     from .report.modes_out import proof_figure
     from .modeset_proof import prove
-    with step_bar(notes()) as progress:
+    with _compile_note(), step_bar(notes()) as progress:
         proof = prove(result, advice, loads, names, progress)
     if figures is not None:
         figures.mkdir(parents=True, exist_ok=True)
@@ -761,7 +775,7 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     if integrator not in FIXED:
         check_tolerances(rtol, atol)
     y0 = initial_state(model, *_start(b, options, setup.per_second, omega0, q0, qd0))
-    with progress_bar(notes()) as progress:
+    with _compile_note(), progress_bar(notes()) as progress:
         run = integrate(model, y0, setup.t_end, integrator, setup.step, rtol, atol, setup.output_step,
                         progress=progress)
     if output is not None:

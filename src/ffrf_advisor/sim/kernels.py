@@ -14,10 +14,11 @@ and W3 terms read each stored number once per evaluation.
 from __future__ import annotations
 
 import functools
+from contextlib import contextmanager
 
 import numba as nb
 import numpy as np
-from numba.core import cgutils
+from numba.core import cgutils, event
 from numba.extending import intrinsic
 
 from .model import N_ROT, STRIP, strip_start
@@ -362,6 +363,29 @@ def loads_at(t, prog, tau, w, wd):
         tau[k] = prog[k] * f
         w[k] = prog[4 + k] * g
         wd[k] = prog[4 + k] * gd
+
+
+class _FirstCompile(event.Listener):
+    """Calls ``tell()`` when numba starts compiling for the first time while installed (``on_compile``)."""
+
+    def __init__(self, tell):
+        self.tell = tell
+
+    def on_start(self, _):
+        if self.tell is not None:
+            self.tell, tell = None, self.tell
+            tell()
+
+    def on_end(self, _):
+        pass
+
+
+@contextmanager
+def on_compile(tell):
+    """Within: ``tell()`` once, when numba starts to compile (the first simulation after installing, or after an
+    upgrade: about half a minute; later runs load the compiled code from numba's cache, which compiles nothing)."""
+    with event.install_listener("numba:compile", _FirstCompile(tell)):
+        yield
 
 
 F1, F2, F3, F4 = (nb.types.Array(nb.types.float64, ndim, "C") for ndim in (1, 2, 3, 4))

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import os
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,33 +10,21 @@ from ffrf_advisor.fe_body import modal_body
 from ffrf_advisor.fe.material import STEEL
 from ffrf_advisor.fe.mesh import Box, box_mesh, box_union_mesh
 
-# The simulator's compiled kernels take about 35 s to compile on a fresh install (numba caches them on disk for
-# later runs). Two pytest-xdist workers that meet them in their first tests compile each of them twice at once;
-# instead, before its first test, each worker runs its share of the integrators once (the right-hand side they
-# share is compiled by both), and loads the other share from the cache when a test needs it.
-KERNEL_SHARES = {"gw0": ("rk4", "jacobian"), "gw1": ("dop853", "midpoint")}
+# The simulator's compiled code takes about 35 s to compile on a fresh install (numba caches it on disk for later
+# runs). Two pytest-xdist workers that meet it in their first tests would compile all of it twice at once;
+# instead each worker compiles its share before its first test (sim.integrate.compile_ahead) and loads the other
+# share from the cache when a test needs it. The first compiles the right-hand side (13 s here) that every run
+# needs, then RK4 and the Jacobian (17 s in all); the other's share (DOP853 and the midpoint rule, 20 s) ends after
+# the right-hand side is cached, so neither compiles it twice (a fresh default suite 120 s against 127-130 s with
+# the right-hand side in the longer share, 96 s warm, in one phase of this machine).
+KERNEL_SHARES = {"gw0": ("rhs", "rk4", "jacobian"), "gw1": ("dop853", "midpoint")}
 
 
 def pytest_sessionstart(session):
     share = KERNEL_SHARES.get(os.environ.get("PYTEST_XDIST_WORKER", ""), ())
     if share:
-        _run_integrators(share)
-
-
-def _run_integrators(names) -> None:
-    """One short run of each integrator in ``names`` ("jacobian": the compiled linearisation) on the beam."""
-    from ffrf_advisor.io import read_body
-    from ffrf_advisor.sim.integrate import integrate
-    from ffrf_advisor.sim.linearise import compiled_jacobian
-    from ffrf_advisor.sim.model import build_model, initial_state
-    from ffrf_advisor.terms import FULL
-    model = build_model(read_body(Path(__file__).parent.parent / "sample_bodies" / "beam.ffrf.h5"), FULL)
-    y0 = initial_state(model, (0.0, 0.0, 30.0), np.zeros(model.nf))
-    for name in names:
-        if name == "jacobian":
-            compiled_jacobian(model)(0.0, y0[4:])
-        else:
-            integrate(model, y0, 1e-4, name, step=None if name == "dop853" else 1e-5)
+        from ffrf_advisor.sim.integrate import compile_ahead
+        compile_ahead(share)
 
 @pytest.fixture(autouse=True)
 def _memory_limit_per_test():

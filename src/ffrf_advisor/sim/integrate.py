@@ -134,6 +134,27 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
                failed=code != 0, t_fail=done * h if code else None, reason=REASONS.get(code, ""), step=h)
 
 
+COMPILED = ("rhs", "rk4", "dop853", "midpoint", "jacobian")
+
+
+def compile_ahead(names) -> None:
+    """Compile, or load from numba's cache, the compiled code ``names`` (of COMPILED; "jacobian": the
+    linearisation's, sim.linearise) for the argument types the runs pass, without running it. The integrators
+    call the right-hand side by its address, so they compile without it: separate processes can compile them
+    side by side (the tests' workers do, tests/conftest.py)."""
+    from numba import types as t
+
+    from . import dop853, kernels, midpoint
+    F1, F2, M, i8, f8 = kernels.F1, kernels.F2, kernels.MODEL, t.int64, t.float64
+    ahead = {"rhs": kernels.rhs_address,
+             "rk4": lambda: kernels.rk4_loop.compile((i8, F1, f8, i8, i8, t.boolean, F2, M)),
+             "dop853": lambda: dop853.integrate_dop853.compile((i8, F1, f8, f8, F1, F1, i8, F2, M, F1, F1)),
+             "midpoint": lambda: midpoint.midpoint_loop.compile((i8, F1, f8, i8, i8, F2, M, F1, F1)),
+             "jacobian": lambda: kernels.jacobian_into.compile((i8, F1, F1, F2, M))}
+    for name in names:
+        ahead[name]()
+
+
 def _compiled_model(m: Model) -> tuple:
     """The model as the compiled loops read it (``kernels.rhs_into``): the Sbar blocks in strips or tall
     (sim.model), with its scratch workspace."""

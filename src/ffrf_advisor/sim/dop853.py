@@ -7,9 +7,10 @@ its dense output of order 7, step for step as scipy's ``solve_ivp(method=
 safety 0.9, no growth right after a rejection); the Butcher tableau is
 scipy's own (``scipy.integrate._ivp.dop853_coefficients``), not retyped.
 The differences are where the work goes: every stage calls
-``kernels.rhs_into`` inside the loop (through its address, kernels.call_rhs), the state is sampled on the output
-grid as the steps pass (three more stages only for steps that hold a
-sample), and no step's interpolant is kept, so memory is the samples'.
+``kernels.rhs_into`` inside the loop (by its address, kernels.call_rhs),
+the state is sampled on the output grid as the steps pass (three more
+stages only for steps that hold a sample), and no step's interpolant is
+kept, so memory is the samples'.
 
 Loads are the parametric shapes of ``sim.loads.LoadProgram`` (a sin^2
 torque pulse, a prescribed spin ramp), evaluated in the loop by

@@ -115,14 +115,14 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
     """RK4 entirely in compiled code: in chunks of about 1 % when a progress bar follows (each chunk is a call
     from Python, about 20 us), else in one call."""
     from . import kernels
-    compiled = _compiled_model(model)
+    compiled, address = _compiled_model(model), kernels.rhs_address()
     out = np.empty((nsteps // every + 1, len(y0)))
     chunk = every * max(1, (nsteps // every) // 100) if progress else nsteps
     done, code, start, y = 0, 0, time.perf_counter(), y0
     while done < nsteps and code == 0:
         n = min(chunk, nsteps - done)
         part = out[done // every:done // every + n // every + 1]  # its row 0: y, the last chunk's last row
-        steps, code = kernels.rk4_loop(kernels.rhs_address(), y, h, n, every, lie, part, compiled)
+        steps, code = kernels.rk4_loop(address, y, h, n, every, lie, part, compiled)
         rows = steps // every if code else n // every
         done += steps
         y = part[rows]

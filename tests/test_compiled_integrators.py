@@ -136,6 +136,12 @@ def _literal(arg: ast.expr, constants: set[str]) -> bool:
             or isinstance(arg, ast.Name) and arg.id in constants)
 
 
+def _compiled_modules():
+    """(module, its syntax tree) of the three modules of compiled code."""
+    from ffrf_advisor.sim import dop853, midpoint
+    return [(module, ast.parse(inspect.getsource(module))) for module in (kernels, dop853, midpoint)]
+
+
 def test_no_compiled_call_passes_a_literal_argument():
     """numba compiles a callee once more, specialised, for each literal argument a compiled caller passes it (a
     literal prescribed=False had compiled the whole right-hand side twice, about 10 s of a fresh install's first
@@ -143,15 +149,13 @@ def test_no_compiled_call_passes_a_literal_argument():
     modules' Python-level code calls no kernel (a call from Python is typed by value, never as a literal)."""
     from numba.core.registry import CPUDispatcher
 
-    from ffrf_advisor.sim import dop853, midpoint
     found = []
-    for module in (kernels, dop853, midpoint):
+    for module, tree in _compiled_modules():
         names = vars(module)
         called = {n for n, f in names.items() if isinstance(f, CPUDispatcher)
                   and f.targetoptions.get("inline", "never") == "never"}
         constants = {n for n, v in names.items() if isinstance(v, (bool, int))}
         assert "rhs_into" in called or module is not kernels
-        tree = ast.parse(inspect.getsource(module))
         found += [f"{module.__name__}:{node.lineno} {node.func.id}" for node in ast.walk(tree)
                   if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in called
                   and any(_literal(a, constants) for a in node.args)]
@@ -161,10 +165,9 @@ def test_no_compiled_call_passes_a_literal_argument():
 def test_no_compiled_function_calls_the_right_hand_side_by_name():
     """The compiled integrators call rhs_into through its address (kernels.call_rhs): called by name, numba links
     it into every compiled caller and compiles it once more in each layer (3.5-4 s a layer, docs/simulate.md)."""
-    from ffrf_advisor.sim import dop853, midpoint
     found = []
-    for module in (kernels, dop853, midpoint):
-        for function in ast.walk(ast.parse(inspect.getsource(module))):
+    for module, tree in _compiled_modules():
+        for function in ast.walk(tree):
             if isinstance(function, ast.FunctionDef) and function.decorator_list:
                 found += [f"{module.__name__}:{node.lineno}" for node in ast.walk(function)
                           if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "rhs_into"]

@@ -185,9 +185,12 @@ class ModeChoice:
     f_hz: float
     participation: float
     stress_share: float
-    keep: bool
+    rule: str
     reason: str
-    rule: str = ""
+
+    @property
+    def keep(self) -> bool:
+        return bool(self.rule)
 
     @property
     def decision(self) -> str:
@@ -418,7 +421,7 @@ def _widened(kept, residual, modes: list, scenes, loads: InertiaLoads, setting: 
             return kept, predicted
         worst = max(bad, key=lambda p: p[2])
         k = max(dropped, key=lambda k: worst[3][k])
-        modes[k] = replace(modes[k], keep=True, rule="spun", reason=f"keep: spun error {worst[2]:.2g} > {tol:g} "
+        modes[k] = replace(modes[k], rule="spun", reason=f"keep: spun error {worst[2]:.2g} > {tol:g} "
                            "without it (the spin softens the body, its rise loads the deflection)")
         kept = tuple(sorted((*kept, k)))
 
@@ -452,7 +455,7 @@ def _choice(k: int, body, scenes, p, share, applied, tol: float, band: float) ->
     else:
         rule, reason = "", ("drop: out of band, " + (f"static energy share {pk:.2g} <= {tol:g}"
                                                      if np.isfinite(pk) else "share unknown (no compliance)"))
-    return ModeChoice(k, f, float(pk), float(sk), bool(rule), reason, rule)
+    return ModeChoice(k, f, float(pk), float(sk), rule, reason)
 
 
 DEPENDENT = 1e-6  # share of a residual vector's squared M-norm below which what it adds is no new direction

@@ -353,10 +353,8 @@ def _at(body, ref: Model, models, a, s, q_max, sigma_allow, stiff, excitation, r
     widening = exact_widening(body, a, s)
     parts = None if stiff else inertia_parts(ref, deformation_parts(q_ref, amplitude))  # shared by the sets
     out = np.zeros((len(models), len(KINDS)))
-    for i, model in enumerate(models):
-        if i not in spectra:
-            continue
-        f, V, q = spectra[i]
+    for i, (f, V, q) in spectra.items():
+        model = models[i]
         out[i] = (_matched_error(f_ref, V_ref, f, V),
                   0.0 if model.on("cor_coupling") or not ref.on("cor_coupling") else mix,
                   static_error(body, q, q_ref, q_max, sigma_allow,

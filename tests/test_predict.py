@@ -15,7 +15,7 @@ from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.cli import app
 from ffrf_advisor.guidelines import LEVELS, Situation
 from ffrf_advisor.io import read_body
-from ffrf_advisor.predict import (DLF, FLOOR, candidate_sets, gyroscopic_transfer, mixing, predictions,
+from ffrf_advisor.predict import (DLF, FLOOR, KINDS, candidate_sets, gyroscopic_transfer, mixing, predictions,
                                   reference_terms, ten_percent)
 from ffrf_advisor.sim.integrate import Loads, integrate
 from ffrf_advisor.sim.linearise import modal_spectrum, static_deflection
@@ -438,3 +438,34 @@ def test_linearised_spectra_on_two_threads_equal_those_taken_one_after_the_other
         assert np.allclose(f_t, f, rtol=1e-12, atol=0) and np.allclose(q_t, q, rtol=1e-12, atol=1e-300)
         mac = np.abs(np.sum(V.conj() * V_t, axis=0)) ** 2 / (np.sum(np.abs(V) ** 2, 0) * np.sum(np.abs(V_t) ** 2, 0))
         assert np.allclose(mac, 1.0, atol=1e-10)
+
+
+def test_sets_differing_only_by_terms_that_vanish_share_their_linearisation(tmp_path, monkeypatch):
+    """A bar whose modes all move along y has W3 = 0 exactly (its skew products vanish): the sets that differ
+    only by W3 terms have the same dynamics, so the predictions linearise each distinct one once per point
+    (those with the reference's acting terms not at all: errors 0), with the errors of every set linearised
+    on its own (the same equations: round-off of the eigensolver, 1e-9). On the beam every term acts."""
+    from ffrf_advisor import predict
+    from tests.tree_memory import synthetic_body
+    synthetic_body(tmp_path / "bar.ffrf.h5", 20, 6)
+    body = read_body(tmp_path / "bar.ffrf.h5")
+    assert not body.integrals.W3().any()
+    sets = candidate_sets(body, stiff=False)
+    amp = q_max(body)
+    s = 0.5 * min(s for s in softening_speeds(body) if np.isfinite(s))
+    args = (list(np.eye(3)), [s], amp.q_max, amp.sigma_allow, False)
+    acting = predict.acting_terms(body)
+    distinct = {acting(terms) for _, terms in sets} - {acting(reference_terms(body))}
+    assert len(distinct) < len(sets) - 1
+    tasks, linearised = [], predict.linearised_spectra
+    monkeypatch.setattr(predict, "linearised_spectra", lambda t: tasks.append(len(t)) or linearised(t))
+    shared = predictions(body, sets, *args)
+    assert tasks == [3 * (1 + len(distinct))]
+    monkeypatch.setattr(predict, "acting_terms", lambda body: frozenset)
+    alone = predictions(body, sets, *args)
+    assert tasks[-1] == 3 * len(sets)  # the reference and every other set
+    for c, d in zip(shared, alone):
+        for kind in KINDS:
+            assert c.errors[kind] == pytest.approx(d.errors[kind], rel=1e-9, abs=1e-12), (c.label, kind)
+    beam = read_body(DIR / "beam.ffrf.h5")
+    assert all(predict.acting_terms(beam)(terms) == frozenset(terms) for _, terms in candidate_sets(beam, False))

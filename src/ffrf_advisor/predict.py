@@ -57,7 +57,7 @@ from .sim import equations as eq
 from .sim.cost import rhs_cost
 from .sim.linearise import best_pairs, modal_spectrum
 from .sim.model import Model, build_model
-from .terms import FULL, GROUPS, LEVEL_SETS, is_lagrangian, lagrangian_superset, ordered
+from .terms import BY_ID, FULL, GROUPS, LEVEL_SETS, is_lagrangian, lagrangian_superset, ordered
 
 KINDS = ("frequency", "mixing", "static", "rigid")
 MARGIN = 2.0   # a set is adequate when every prediction is below tolerance / MARGIN (first-order estimates add)
@@ -164,12 +164,14 @@ def moved_by_mixing(body: FlexibleBody, a: np.ndarray, s: float, amplitude: np.n
     """``R_q``, what mode q released from ``amplitude_q`` at rest moves into the other modes within the response
     time T at spin s about a (``mixing``): ``sum_p sigma_p c_pq amplitude_q``, or ``|c_q| amplitude_q`` without
     stress data, with ``c_pq = min(transfer_pq, |Gy_pq| T / 2)``; None where nothing mixes (one mode, no spin,
-    no W3)."""
+    no W3, Gy = 0)."""
     nf = body.nf
     if nf < 2 or s <= 0 or "W3" in body.integrals.missing:
         return None
     W3k = body.integrals.W3().reshape(3, nf, nf)
     Gy = 2 * s * np.einsum("k,krs->sr", a, W3k)
+    if not Gy.any():
+        return None
     om = np.sqrt(np.abs(body.eigenvalues))
     T = response_time(om[0] / (2 * np.pi), s)
     c = np.minimum(gyroscopic_transfer(om, Gy), np.abs(Gy) * T / 2)
@@ -303,7 +305,14 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
     ref_terms = reference_terms(body)
     ref = build_model(body, ref_terms)
     models = [build_model(body, terms) for _, terms in sets]
-    own = [i for i, (_, terms) in enumerate(sets) if set(terms) != set(ref.terms)]  # the others: errors 0
+    acting = acting_terms(body)
+    ref_acting = acting(ref_terms)
+    first: dict[frozenset, int] = {}  # each distinct dynamics but the reference's (errors 0): its first set
+    for i, (_, terms) in enumerate(sets):
+        if acting(terms) != ref_acting:
+            first.setdefault(acting(terms), i)
+    own = list(first.values())
+    like = {i: own.index(first[acting(terms)]) for i, (_, terms) in enumerate(sets) if acting(terms) in first}
     points = [(i_axis, np.asarray(a, float) / np.linalg.norm(a), s)
               for i_axis, a in enumerate(axes) for s in speeds if s > 0]
     per = 1 + len(own)
@@ -312,13 +321,24 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
     where = np.zeros((len(sets), len(KINDS)), dtype=int)
     for k, (i_axis, a, s) in enumerate(points):
         ref_spectrum, *rest = spectra[k * per:(k + 1) * per]
-        e = _at(body, ref, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, dict(zip(own, rest)))
+        e = _at(body, ref, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum,
+                {i: rest[j] for i, j in like.items()})
         worse = e > errors
         errors = np.where(worse, e, errors)
         where = np.where(worse, i_axis, where)
     full = rhs_cost(ref_terms, body.nf)
     return [Candidate(label, terms, dict(zip(KINDS, map(float, errors[i]))), dict(zip(KINDS, map(int, where[i]))),
                       rhs_cost(terms, body.nf) / full) for i, (label, terms) in enumerate(sets)]
+
+
+def acting_terms(body: FlexibleBody):
+    """``terms -> frozenset``: the terms of a set that act on this body; a term whose invariants are all exactly
+    zero adds exact zeros (W3 of a body whose modes all move along one direction: a bar bending in one plane, a
+    plate's out-of-plane modes), so sets with the same acting terms have the same dynamics and share their
+    linearisations."""
+    ints = body.integrals
+    inert = {g for g, W in (("W1", ints.W1()), ("W2", ints.W2()), ("W3", ints.W3())) if W is not None and not W.any()}
+    return lambda terms: frozenset(t for t in terms if BY_ID[t].group not in inert)
 
 
 def modal_amplitude(excitation: str, q_max: np.ndarray, q_static: np.ndarray) -> np.ndarray:
@@ -346,7 +366,8 @@ def linearised_spectra(tasks: list[tuple[Model, np.ndarray, float]]) -> list[tup
 
 def _at(body, ref: Model, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, spectra) -> np.ndarray:
     """(sets, KINDS) predictions at one spin s about one axis a, from the ``modal_spectrum`` at (a, s) of the
-    reference and of each set by its index (``spectra``; a set missing there has the reference's terms: 0)."""
+    reference and of each set by its index (``spectra``; a set missing there has the reference's acting terms:
+    0)."""
     f_ref, V_ref, q_ref = ref_spectrum
     amplitude = modal_amplitude(excitation, q_max, q_ref)
     mix = mixing(body, a, s, q_max, sigma_allow, amplitude)

@@ -306,13 +306,9 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
     ref = build_model(body, ref_terms)
     models = [build_model(body, terms) for _, terms in sets]
     acting = acting_terms(body)
-    ref_acting = acting(ref_terms)
-    first: dict[frozenset, int] = {}  # each distinct dynamics but the reference's (errors 0): its first set
-    for i, (_, terms) in enumerate(sets):
-        if acting(terms) != ref_acting:
-            first.setdefault(acting(terms), i)
-    own = list(first.values())
-    like = {i: own.index(first[acting(terms)]) for i, (_, terms) in enumerate(sets) if acting(terms) in first}
+    keys = [acting(terms) for _, terms in sets]
+    distinct = [k for k in dict.fromkeys(keys) if k != acting(ref_terms)]  # the reference's dynamics: errors 0
+    own = [keys.index(k) for k in distinct]  # the first set of each distinct dynamics is linearised
     points = [(i_axis, np.asarray(a, float) / np.linalg.norm(a), s)
               for i_axis, a in enumerate(axes) for s in speeds if s > 0]
     per = 1 + len(own)
@@ -322,7 +318,7 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
     for k, (i_axis, a, s) in enumerate(points):
         ref_spectrum, *rest = spectra[k * per:(k + 1) * per]
         e = _at(body, ref, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum,
-                {i: rest[j] for i, j in like.items()})
+                {i: rest[distinct.index(key)] for i, key in enumerate(keys) if key in distinct})
         worse = e > errors
         errors = np.where(worse, e, errors)
         where = np.where(worse, i_axis, where)

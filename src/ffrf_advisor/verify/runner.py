@@ -227,14 +227,15 @@ def run_set(a: Analysis, ts: TermSet, scene: Scene, ref: Reference, integrator: 
 
 def verify(a: Analysis, scenes, tolerance: float = 0.01, integrator: str = "dop853", step: float | None = None,
            rtol: float = 1e-8, repeats: int = 3, criterion: str = "response", jobs: int = 1,
-           progress=None) -> Verification:
+           progress=None, untimed=None) -> Verification:
     """Every term set through every scene against the reference, and the verdict on the advice by ``criterion``;
-    the references, then the runs of the distinct sets (``distinct``), on ``jobs`` local processes (each run's wall time is the minimum over
-    its ``repeats``, taken serially in its worker); ``progress(label, done, total)`` is told of each finished
-    run."""
+    the references, then the runs of the distinct sets (``distinct``), on ``jobs`` local processes (each run's
+    wall time is the minimum over its ``repeats``, taken serially in its worker); ``progress(label, done,
+    total)`` is told of each finished run; ``untimed()`` is called after the references and before the first
+    timed run (it waits for work done beside the references, which nothing times)."""
     scenes, sets = tuple(scenes), term_sets(a)
     refs, rows = _runs(_Work(a, scenes, distinct(sets), integrator, step, rtol, repeats), jobs,
-                       progress or _silent)
+                       progress or _silent, untimed or _silent)
     run_of = {(r.scene, r.set.terms): r for r in rows}
     results = []
     for sc in scenes:
@@ -264,8 +265,9 @@ class _Work:
 _work: _Work | None = None
 
 
-def _runs(work: _Work, jobs: int, progress) -> tuple[dict, list[SetResult]]:
-    """The scenes' references, then every (scene, set) run, in order, each finished one told to ``progress``."""
+def _runs(work: _Work, jobs: int, progress, untimed) -> tuple[dict, list[SetResult]]:
+    """The scenes' references, ``untimed()``, then every (scene, set) run, in order, each finished one told to
+    ``progress``."""
     global _work
     _work = work
     n = len(work.scenes) * (1 + len(work.sets))
@@ -274,6 +276,7 @@ def _runs(work: _Work, jobs: int, progress) -> tuple[dict, list[SetResult]]:
         with mapper(jobs) as map_:
             refs = _told(map_(_reference_run, range(len(work.scenes))), progress, 0, n,
                          lambda i: f"reference {work.scenes[i].label}")
+            untimed()
             rows = _told(map_(_set_run, pairs, [refs[i] for i, _ in pairs]), progress, len(refs), n,
                          lambda k: f"{work.scenes[pairs[k][0]].label}: {work.sets[pairs[k][1]].label}")
     finally:
@@ -290,8 +293,8 @@ def _told(results, progress, before: int, total: int, label) -> list:
     return out
 
 
-def _silent(label: str, done: int, total: int) -> None:
-    """No progress shown."""
+def _silent(*_) -> None:
+    """No progress shown (nothing to wait for)."""
 
 
 def _reference_run(i: int) -> Reference:

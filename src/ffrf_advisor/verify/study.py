@@ -6,6 +6,7 @@ the Study into the JSON of src/ffrf_advisor/schemas/verify.json and
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -107,15 +108,20 @@ def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str
     runs = len(scenes) * (1 + len(distinct(term_sets(a))))
     total = runs + (0 if quick else 3)
     told = (lambda label, done, _: progress(label, done, total)) if progress else (lambda *_: None)
-    ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion, jobs, told)
     first = scenes[0]
-    points = stab = camp = None
-    if not quick:
-        points = work_precision(a, first, ver.references[first.label],
-                                tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)
-        told("work-precision", runs + 1, total)
-        stab = stability_studies(a, first)
-        told("stability studies", runs + 2, total)
-        camp = campbell_data(a, first.speed, first.axis)
-        told("Campbell diagram", runs + 3, total)
+    studies = None if quick else lambda: (stability_studies(a, first), campbell_data(a, first.speed, first.axis))
+    with ThreadPoolExecutor(1) as beside:
+        # One job: the studies, which time nothing, run beside the references (their integrators release the
+        # GIL). Never beside a pool: its workers fork, and a fork beside a running thread can inherit a held lock.
+        pending = beside.submit(studies) if studies and jobs <= 1 else None
+        ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion, jobs, told,
+                     pending and pending.result)
+        points = stab = camp = None
+        if not quick:
+            points = work_precision(a, first, ver.references[first.label],
+                                    tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)
+            told("work-precision", runs + 1, total)
+            stab, camp = pending.result() if pending else studies()
+            told("stability studies", runs + 2, total)
+            told("Campbell diagram", runs + 3, total)
     return Study(a, ver, points, stab, camp)

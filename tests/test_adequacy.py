@@ -86,12 +86,15 @@ def test_the_plate_misses_its_widening_until_augmented_and_then_passes_every_che
 
 
 def test_rule_II_takes_the_exact_widening_stress_and_warns_with_the_fix(plate):
-    """The plate at 3000 rpm: the modes give ~1e-7 of sigma_allow, the static FE solution about 0.2."""
+    """The plate at 3000 rpm: the modes give ~1e-7 of sigma_allow, the static FE solution about 0.2; at rest no
+    warning (gate at rest said "widening stress at w_op 0 exact, 0 from the modes; fix: augment")."""
     a = analyze(plate, Options(situation=Situation(w_op=100 * np.pi, rules="thresholds")))
     rule = next(r for r in a.advice.rules if r.name == "widening")
     assert rule.fired and 0.15 < rule.value < 0.25 and "exact static FE solution" in rule.reason
     warned = [w for w in a.advice.warnings if "miss the centrifugal deflection" in w]
     assert len(warned) == 3 and "augment" in warned[0] and "principal axis 1" in warned[0]
+    at_rest = analyze(plate, Options(situation=Situation(w_op=0.0, rules="thresholds")))  # no load: nothing missed
+    assert not [w for w in at_rest.advice.warnings if "miss the centrifugal deflection" in w]
 
 
 def test_analyze_json_carries_the_adequacy_and_an_invariants_file_says_it_is_not_available(tmp_path):

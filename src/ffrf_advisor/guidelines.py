@@ -257,8 +257,9 @@ def _rule_II(body, amp: Amplitudes, sit: Situation, w_op) -> Rule:
 
 
 def _basis_warnings(body: FlexibleBody, sit: Situation, w_op) -> list[str]:
-    """Principal axes whose centrifugal deflection the kept modes miss (theory 11), with the fix."""
-    if body.static_centrifugal is None:
+    """Principal axes whose centrifugal deflection the kept modes miss (theory 11), with the fix; none for a body
+    at rest (w_op 0: no centrifugal load, nothing to miss)."""
+    if body.static_centrifugal is None or w_op == 0:
         return []
     thr, s = sit.threshold("basis_error"), (1.0 if w_op is None else w_op)
     at = f"per (rad/{body.units.time})^2" if w_op is None else "at w_op"

@@ -357,11 +357,12 @@ def test_trajectory_plots_say_below_round_off_instead_of_drawing_it():
 
 
 @pytest.mark.parametrize("jobs", [1, 2])
-def test_the_untimed_studies_run_beside_the_references_and_end_before_the_first_timed_run(monkeypatch, jobs):
-    """verify (issue 24): with one job the stability and Campbell studies, which time nothing, run on a second
-    thread while the references are computed and have ended when the first timed run starts (a timing beside
-    them would measure them too); beside a pool of processes (jobs 2) they run after the runs on the main
-    thread (its workers fork, which a running thread makes unsafe). Their results are the Study's."""
+def test_beside_one_job_the_untimed_work_runs_on_threads_and_ends_before_the_first_timed_run(monkeypatch, jobs):
+    """verify (issue 24): with one job the references (DOP853 releases the GIL) take two threads and the stability
+    and Campbell studies a third, all of which time nothing, and they have ended when the first timed run starts
+    (a timing beside them would measure them too); beside a pool of processes (jobs 2) the studies run after the
+    runs on the main thread (the pool's workers fork, which a running thread makes unsafe). The studies' results
+    are the Study's."""
     import threading
     import time
 
@@ -372,24 +373,29 @@ def test_the_untimed_studies_run_beside_the_references_and_end_before_the_first_
         def fn(*_args, **_kw):
             start = time.perf_counter()
             time.sleep(pause)
-            seen.setdefault(name, []).append((threading.current_thread() is threading.main_thread(), start,
-                                              time.perf_counter()))
+            seen.setdefault(name, []).append((threading.current_thread(), start, time.perf_counter()))
             return result
         return fn
     if jobs == 1:  # the pool's workers would not report back
         reference, set_run = runner._reference_run, runner._set_run
-        monkeypatch.setattr(runner, "_reference_run", lambda i: (reference(i), noted("reference ended", None)())[0])
+        monkeypatch.setattr(runner, "cpus", lambda: 2)
+        monkeypatch.setattr(runner, "_reference_run",  # each thread busy long enough for the other to start
+                            lambda i: (noted("reference", None, 0.2)(), reference(i),
+                                       noted("reference ended", None)())[1])
         monkeypatch.setattr(runner, "_set_run", lambda *args: noted("timed run started", None)() or set_run(*args))
     monkeypatch.setattr(study, "stability_studies", noted("stability", "stab", 0.05))
     monkeypatch.setattr(study, "campbell_data", noted("campbell", "camp"))
     monkeypatch.setattr(study, "work_precision", noted("work-precision", []))
     a = analyze(read_body(DIR / "conrod.ffrf.h5"), Options(situation=Situation(w_op=30.0)))
-    done = study.run_study(a, ["free-spin"], repeats=1, scene_options=SceneOptions(axis=1), jobs=jobs)
+    done = study.run_study(a, ["free-spin"], repeats=1, jobs=jobs)  # about both stable axes: two references
     assert (done.stability, done.campbell, done.work_precision) == ("stab", "camp", [])
-    (main_thread, start, _), = seen["stability"]
+    (thread, start, _), = seen["stability"]
     (_, _, end), = seen["campbell"]
+    first_timed = seen["timed run started"][0][1] if jobs == 1 else None
     if jobs == 1:
-        assert not main_thread and start < seen["reference ended"][-1][2] <= seen["timed run started"][0][1]
-        assert end <= seen["timed run started"][0][1]
+        ref_threads = {t for t, *_ in seen["reference"]}
+        assert len(seen["reference"]) == 2 and len(ref_threads) == 2 and threading.main_thread() not in ref_threads
+        assert thread is not threading.main_thread() and thread not in ref_threads
+        assert start < max(e for *_, e in seen["reference ended"]) <= first_timed and end <= first_timed
     else:
-        assert main_thread and start >= seen["work-precision"][0][1]
+        assert thread is threading.main_thread() and start >= seen["work-precision"][0][1]

@@ -30,6 +30,23 @@ def _worker(parent: int) -> None:
     threadpool_limits(1)
 
 
+def cpus() -> int:
+    """The processors this process may run on."""
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+@contextmanager
+def threads(n: int):
+    """An ordered ``map`` over ``n`` threads (the builtin ``map`` for one), for work that releases the GIL:
+    LAPACK's eigensolvers, the compiled integrators (their kernels are ``nogil``)."""
+    if n <= 1:
+        yield map
+        return
+    from concurrent.futures import ThreadPoolExecutor
+    with ThreadPoolExecutor(n) as pool:
+        yield pool.map
+
+
 @contextmanager
 def mapper(jobs: int, chunksize: int = 1):
     """An ordered ``map`` over ``jobs`` local processes (the builtin ``map`` for one job)."""

@@ -46,13 +46,13 @@ vanish (a torque pulse from rest leaves the modes at rest to first order).
 """
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 from itertools import combinations
 
 import numpy as np
 
 from .body import FlexibleBody
+from .pool import cpus, threads
 from .sim import equations as eq
 from .sim.cost import rhs_cost
 from .sim.linearise import best_pairs, modal_spectrum
@@ -350,14 +350,12 @@ def linearised_spectra(tasks: list[tuple[Model, np.ndarray, float]]) -> list[tup
     """``modal_spectrum`` of each (model, axis, spin). Large ones run on two threads with one BLAS thread each:
     LAPACK's eigensolver releases the GIL, and two eigenproblems of 203 states at once took half the time of
     one after the other, where two BLAS threads for each gained nothing (numpy with OpenBLAS, 2 cores)."""
-    workers = min(2, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+    workers = min(2, cpus())
     if not tasks or workers < 2 or 2 * tasks[0][0].nf + 3 < THREADED_STATES:
         return [modal_spectrum(*task) for task in tasks]
-    from concurrent.futures import ThreadPoolExecutor
-
     from threadpoolctl import threadpool_limits
-    with threadpool_limits(1), ThreadPoolExecutor(workers) as pool:
-        return list(pool.map(lambda task: modal_spectrum(*task), tasks))
+    with threadpool_limits(1), threads(workers) as map_:
+        return list(map_(lambda task: modal_spectrum(*task), tasks))
 
 
 def _at(body, ref: Model, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, spectra) -> np.ndarray:

@@ -111,17 +111,17 @@ def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str
     first = scenes[0]
     studies = None if quick else lambda: (stability_studies(a, first), campbell_data(a, first.speed, first.axis))
     with ThreadPoolExecutor(1) as beside:
-        # One job: the studies, which time nothing, run beside the references (their integrators release the
-        # GIL). Never beside a pool: its workers fork, and a fork beside a running thread can inherit a held lock.
+        # One job: the studies, which time nothing, run beside the references, ended before the first timed run.
+        # Never beside a pool: its workers fork, and a fork beside a running thread can inherit a held lock.
         pending = beside.submit(studies) if studies and jobs <= 1 else None
         ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion, jobs, told,
                      pending and pending.result)
-        points = stab = camp = None
-        if not quick:
-            points = work_precision(a, first, ver.references[first.label],
-                                    tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)
-            told("work-precision", runs + 1, total)
-            stab, camp = pending.result() if pending else studies()
-            told("stability studies", runs + 2, total)
-            told("Campbell diagram", runs + 3, total)
+    points = stab = camp = None
+    if not quick:
+        points = work_precision(a, first, ver.references[first.label],
+                                tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)
+        told("work-precision", runs + 1, total)
+        stab, camp = pending.result() if pending else studies()
+        told("stability studies", runs + 2, total)
+        told("Campbell diagram", runs + 3, total)
     return Study(a, ver, points, stab, camp)

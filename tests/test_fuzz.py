@@ -80,6 +80,8 @@ def test_the_nastran_reader_survives_hundreds_of_damaged_files():
     counted(done, OP2_CASES)
 
 
+@pytest.mark.slow  # four formats' damage through the whole CLI: 5-6 s (the one-line errors of bad input have
+# their default tests in test_cli.py and test_hostile_options.py)
 def test_damaged_files_through_the_cli_give_one_line_and_exit_2(seeds, tmp_path):
     """Byte and structural damage (huge shapes, links, long strings), read and analysed through the CLI."""
     d, _ = seeds

@@ -115,6 +115,7 @@ def test_the_report_never_overwrites_an_input_or_an_existing_file(tmp_path):
     assert result.exit_code == 2 and "input of this run" in result.output
 
 
+@pytest.mark.slow  # Chromium's start and a second build of the beam's report: 6 s of a worker
 @pytest.mark.skipif(shutil.which("chromium") is None,
                     reason="Chromium is not installed (.ci/run installs the Debian package chromium)")
 def test_the_html_renders_in_headless_chromium(beam_html, tmp_path):
@@ -195,6 +196,7 @@ def test_a_pdf_without_weasyprint_or_pango_is_refused_in_one_line(tmp_path, monk
 ROWS = 60
 
 
+@pytest.mark.slow  # WeasyPrint typesets four pages: 4 s
 def test_a_long_wide_table_breaks_across_a4_pages_with_its_header_on_each(tmp_path):
     """Typesetting alone (no analysis, no figure): 60 rows of a 7-column table with a long last column, as the
     verdict's rules table, fit the page width and repeat their header row on every page they reach."""

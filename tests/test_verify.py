@@ -356,7 +356,7 @@ def test_trajectory_plots_say_below_round_off_instead_of_drawing_it():
         assert (len(fig.axes[1].lines) == 0) is said
 
 
-@pytest.mark.parametrize("jobs", [1, 2])
+@pytest.mark.parametrize("jobs", [1, pytest.param(2, marks=pytest.mark.slow)])  # 2: a pool's start, as before
 def test_beside_one_job_the_untimed_work_runs_on_threads_and_ends_before_the_first_timed_run(monkeypatch, jobs):
     """verify (issue 24): with one job the references (DOP853 releases the GIL) take two threads and the stability
     and Campbell studies a third, all of which time nothing, and they have ended when the first timed run starts

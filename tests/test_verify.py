@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import jsonschema
@@ -364,7 +365,6 @@ def test_beside_one_job_the_untimed_work_runs_on_threads_and_ends_before_the_fir
     runs on the main thread (the pool's workers fork, which a running thread makes unsafe). The studies' results
     are the Study's."""
     import threading
-    import time
 
     from ffrf_advisor.verify import runner, study
     seen = {}
@@ -399,3 +399,30 @@ def test_beside_one_job_the_untimed_work_runs_on_threads_and_ends_before_the_fir
         assert start < max(e for *_, e in seen["reference ended"]) <= first_timed and end <= first_timed
     else:
         assert thread is threading.main_thread() and start >= seen["work-precision"][0][1]
+
+
+def test_an_interrupted_verify_does_not_wait_for_the_studies_beside_it():
+    """Ctrl-C while the references run (KeyboardInterrupt from one of them): the process ends at once, not after the
+    untimed studies beside them (a daemon thread; here they would take 60 s), as it did when they ran after."""
+    script = f"""
+import time
+from ffrf_advisor.analysis import Options, analyze
+from ffrf_advisor.guidelines import Situation
+from ffrf_advisor.io import read_body
+from ffrf_advisor.verify import runner, study
+def interrupted(i):
+    time.sleep(0.2)  # the studies have started
+    raise KeyboardInterrupt
+runner._reference_run = interrupted
+study.stability_studies = lambda *args: time.sleep(60)
+a = analyze(read_body({str(DIR / "conrod.ffrf.h5")!r}), Options(situation=Situation(w_op=30.0)))
+start = time.perf_counter()
+try:
+    study.run_study(a, ["free-spin"], repeats=1)
+except KeyboardInterrupt:
+    print(time.perf_counter() - start)
+"""
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=50)
+    assert done.returncode == 0 and float(done.stdout) < 5, done.stderr
+    assert time.perf_counter() - start < 30  # the process too: its exit joined no study

@@ -47,6 +47,30 @@ def threads(n: int):
         yield pool.map
 
 
+def beside(fn):
+    """``fn()`` started on a thread beside the caller's (work that times nothing); returns ``wait()``, which gives
+    its result or raises its exception. The thread is a daemon: an interrupted run (Ctrl-C) ends at once instead
+    of waiting at exit for work nobody will read."""
+    import threading
+    box: dict = {}
+
+    def run() -> None:
+        try:
+            box["result"] = fn()
+        except BaseException as e:  # noqa: BLE001 - raised again by wait() in the caller's thread
+            box["error"] = e
+
+    thread = threading.Thread(target=run, name="beside", daemon=True)
+    thread.start()
+
+    def wait():
+        thread.join()
+        if "error" in box:
+            raise box["error"]
+        return box["result"]
+    return wait
+
+
 @contextmanager
 def mapper(jobs: int, chunksize: int = 1):
     """An ordered ``map`` over ``jobs`` local processes (the builtin ``map`` for one job)."""

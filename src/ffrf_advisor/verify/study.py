@@ -6,12 +6,12 @@ the Study into the JSON of src/ffrf_advisor/schemas/verify.json and
 """
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..analysis import Analysis
+from ..pool import beside
 from ..response import frequency_change
 from ..sim.equations import energy
 from ..sim.linearise import campbell, campbell_speeds, compiled_jacobian
@@ -110,18 +110,16 @@ def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str
     told = (lambda label, done, _: progress(label, done, total)) if progress else (lambda *_: None)
     first = scenes[0]
     studies = None if quick else lambda: (stability_studies(a, first), campbell_data(a, first.speed, first.axis))
-    with ThreadPoolExecutor(1) as beside:
-        # One job: the studies, which time nothing, run beside the references, ended before the first timed run.
-        # Never beside a pool: its workers fork, and a fork beside a running thread can inherit a held lock.
-        pending = beside.submit(studies) if studies and jobs <= 1 else None
-        ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion, jobs, told,
-                     pending and pending.result)
+    # One job: the studies, which time nothing, run beside the references, ended before the first timed run.
+    # Never beside a pool: its workers fork, and a fork beside a running thread can inherit a held lock.
+    pending = beside(studies) if studies and jobs <= 1 else None
+    ver = verify(a, scenes, tolerance, integrator, step, rtol, repeats, criterion, jobs, told, pending)
     points = stab = camp = None
     if not quick:
         points = work_precision(a, first, ver.references[first.label],
                                 tuple(ts for ts in term_sets(a) if ts.label != "Lagrangian superset"), repeats)
         told("work-precision", runs + 1, total)
-        stab, camp = pending.result() if pending else studies()
+        stab, camp = pending() if pending else studies()
         told("stability studies", runs + 2, total)
         told("Campbell diagram", runs + 3, total)
     return Study(a, ver, points, stab, camp)

@@ -115,7 +115,7 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
     """RK4 entirely in compiled code: in chunks of about 1 % when a progress bar follows (each chunk is a call
     from Python, about 20 us), else in one call."""
     from . import kernels
-    compiled, address = _compiled_model(model), kernels.rhs_address()
+    address, compiled = compiled_args(model)
     out = np.empty((nsteps // every + 1, len(y0)))
     chunk = every * max(1, (nsteps // every) // 100) if progress else nsteps
     done, code, start, y = 0, 0, time.perf_counter(), y0
@@ -155,6 +155,13 @@ def compile_ahead(names) -> None:
         ahead[name]()
 
 
+def compiled_args(m: Model) -> tuple[int, tuple]:
+    """(the right-hand side's address, the packed model): the first and the model argument of every compiled
+    loop (kernels.rhs_address, ``_compiled_model``)."""
+    from . import kernels
+    return kernels.rhs_address(), _compiled_model(m)
+
+
 def _compiled_model(m: Model) -> tuple:
     """The model as the compiled loops read it (``kernels.rhs_into``): the Sbar blocks in strips or tall
     (sim.model), with its scratch workspace."""
@@ -167,9 +174,9 @@ MIDPOINT_FAILURES = {1: REASONS[1], 2: REASONS[2], 3: "Newton iteration did not 
 
 def _midpoint_compiled(model, y0, h, nsteps, every, program) -> Run:
     """The implicit midpoint rule in compiled code (sim.midpoint; ``_MidpointStepper`` is its reference)."""
-    from . import kernels, midpoint
+    from . import midpoint
     out = np.empty((nsteps // every + 1, len(y0)))
-    compiled, address = _compiled_model(model), kernels.rhs_address()
+    address, compiled = compiled_args(model)
     start = time.perf_counter()
     steps, nfev, code = midpoint.midpoint_loop(address, y0, h, nsteps, every, out, compiled, program,
                                                np.zeros(model.nf))
@@ -280,12 +287,12 @@ DOP853_FAILURES = {1: "required step size is less than spacing between numbers",
 
 def _dop853_compiled(model, y0, t_end, rtol, atol, output_step, program) -> Run:
     """DOP853 in compiled code (sim.dop853), sampled on the output grid as it goes."""
-    from . import dop853, kernels
+    from . import dop853
     t = _output_times(t_end, output_step)
     out = np.empty((len(t), len(y0)))
     budget = work_budget(model, y0, t_end)
     atol = np.broadcast_to(np.asarray(atol, float), y0.shape).copy()
-    compiled, address = _compiled_model(model), kernels.rhs_address()
+    address, compiled = compiled_args(model)
     start = time.perf_counter()
     rows, nfev, steps, code, t_reached = dop853.integrate_dop853(
         address, y0, float(t_end), float(rtol), atol, t, budget, out, compiled, program, np.zeros(model.nf))

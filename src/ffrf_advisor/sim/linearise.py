@@ -86,8 +86,8 @@ def compiled_jacobian(model: Model):
     differences and steps in one compiled loop, about a tenth of the batched numpy evaluation at 16 modes. For
     callers that load numba anyway (verify's Campbell study); the advice keeps the plain-numpy one."""
     from . import kernels
-    from .integrate import _compiled_model
-    compiled, address = _compiled_model(model), kernels.rhs_address()
+    from .integrate import compiled_args
+    address, compiled = compiled_args(model)
 
     def jac(_, x: np.ndarray) -> np.ndarray:
         J = np.empty((len(x), len(x)))

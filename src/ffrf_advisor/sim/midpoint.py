@@ -215,7 +215,8 @@ def _step(rhs, t, y, h, Y, fresh, model, prog, fext, scratch, M, piv, W, Jq, f0,
 @jit
 def midpoint_loop(rhs, y0, h, nsteps, every, out, model, prog, fext):
     """``nsteps`` midpoint steps of size h from y0; rows of ``out`` every ``every`` steps (row 0: y0); ``rhs``: the
-    right-hand side's address (kernels.rhs_address). Returns (steps done, evaluations, failure code); the failed step's state is the last row written."""
+    right-hand side's address (kernels.rhs_address). Returns (steps done, evaluations, failure code); the failed
+    step's state is the last row written."""
     n = y0.shape[0]
     scratch = (np.empty(3), np.empty(3), np.empty(3))
     m = (n + 7) // 2

@@ -460,12 +460,39 @@ def test_sets_differing_only_by_terms_that_vanish_share_their_linearisation(tmp_
     tasks, linearised = [], predict.linearised_spectra
     monkeypatch.setattr(predict, "linearised_spectra", lambda t: tasks.append(len(t)) or linearised(t))
     shared = predictions(body, sets, *args)
-    assert tasks == [3 * (1 + len(distinct))]
+    assert tasks == [1 + len(distinct)] * 3  # per axis
     monkeypatch.setattr(predict, "acting_terms", lambda body: frozenset)
     alone = predictions(body, sets, *args)
-    assert tasks[-1] == 3 * len(sets)  # the reference and every other set
+    assert tasks[-3:] == [len(sets)] * 3  # the reference and every other set
     for c, d in zip(shared, alone):
         for kind in KINDS:
             assert c.errors[kind] == pytest.approx(d.errors[kind], rel=1e-9, abs=1e-12), (c.label, kind)
     beam = read_body(DIR / "beam.ffrf.h5")
     assert all(predict.acting_terms(beam)(terms) == frozenset(terms) for _, terms in candidate_sets(beam, False))
+
+
+def test_a_set_whose_mode_count_differed_is_not_linearised_again(tmp_path, monkeypatch):
+    """Past the softening limit a set without the softening terms keeps oscillating where the reference's
+    softest modes stop (or the other way round): its frequency error is infinite at the first axis, and no
+    later axis can raise it, so later axes linearise neither it nor, once every set is settled, the reference;
+    every error and the axis it came from are those of linearising everything (the same computations: bit for
+    bit)."""
+    from ffrf_advisor import predict
+    from tests.tree_memory import synthetic_body
+    synthetic_body(tmp_path / "bar.ffrf.h5", 20, 6)
+    body = read_body(tmp_path / "bar.ffrf.h5")
+    sets = candidate_sets(body, stiff=False)
+    amp = q_max(body)
+    s = 5 * min(s for s in softening_speeds(body) if np.isfinite(s))
+    args = (list(np.eye(3)), [s], amp.q_max, amp.sigma_allow, False)
+    tasks, linearised = [], predict.linearised_spectra
+    monkeypatch.setattr(predict, "linearised_spectra", lambda t: tasks.append(len(t)) or linearised(t))
+    skipping = predictions(body, sets, *args)
+    assert any(c.errors["frequency"] == np.inf for c in skipping)
+    every, point_spectra = list(tasks), predict._point_spectra
+    monkeypatch.setattr(predict, "_point_spectra", lambda ref, models, settled, a, s:
+                        point_spectra(ref, models, [False] * len(settled), a, s))
+    tasks.clear()
+    full = predictions(body, sets, *args)
+    assert sum(every) < sum(tasks) == 3 * tasks[0]
+    assert [(c.errors, c.axes) for c in skipping] == [(c.errors, c.axes) for c in full]

@@ -55,7 +55,7 @@ from .body import FlexibleBody
 from .pool import cpus, threads
 from .sim import equations as eq
 from .sim.cost import rhs_cost
-from .sim.linearise import best_pairs, modal_spectrum
+from .sim.linearise import best_pairs, modal_spectrum, spin_vector, static_deflection
 from .sim.model import Model, build_model
 from .terms import BY_ID, FULL, GROUPS, LEVEL_SETS, is_lagrangian, lagrangian_superset, ordered
 
@@ -311,12 +311,11 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
     own = [keys.index(k) for k in distinct]  # the first set of each distinct dynamics is linearised
     points = [(i_axis, np.asarray(a, float) / np.linalg.norm(a), s)
               for i_axis, a in enumerate(axes) for s in speeds if s > 0]
-    per = 1 + len(own)
-    spectra = linearised_spectra([(m, a, s) for _, a, s in points for m in (ref, *(models[i] for i in own))])
     errors = np.zeros((len(sets), len(KINDS)))
     where = np.zeros((len(sets), len(KINDS)), dtype=int)
-    for k, (i_axis, a, s) in enumerate(points):
-        ref_spectrum, *rest = spectra[k * per:(k + 1) * per]
+    for i_axis, a, s in points:
+        settled = [bool(np.isinf(errors[i, KINDS.index("frequency")])) for i in own]
+        ref_spectrum, rest = _point_spectra(ref, [models[i] for i in own], settled, a, s)
         e = _at(body, ref, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum,
                 {i: rest[distinct.index(key)] for i, key in enumerate(keys) if key in distinct})
         worse = e > errors
@@ -358,10 +357,22 @@ def linearised_spectra(tasks: list[tuple[Model, np.ndarray, float]]) -> list[tup
         return list(map_(lambda task: modal_spectrum(*task), tasks))
 
 
+def _point_spectra(ref: Model, models: list[Model], settled: list[bool], a, s: float) -> tuple[tuple, list[tuple]]:
+    """(the reference's ``modal_spectrum``, each model's) at spin s about a. A ``settled`` model's frequency
+    error is already infinite (its mode count differed at an earlier point: no later point can raise it), so it
+    gets only its static deflection, as (None, None, q), and so does the reference where every model is settled:
+    the same errors for fewer eigenproblems."""
+    everyone, done = (ref, *models), (all(settled), *settled)
+    found = iter(linearised_spectra([(m, a, s) for m, skip in zip(everyone, done) if not skip]))
+    spectra = [(None, None, static_deflection(m, spin_vector(a, s)[1])) if skip else next(found)
+               for m, skip in zip(everyone, done)]
+    return spectra[0], spectra[1:]
+
+
 def _at(body, ref: Model, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, spectra) -> np.ndarray:
     """(sets, KINDS) predictions at one spin s about one axis a, from the ``modal_spectrum`` at (a, s) of the
     reference and of each set by its index (``spectra``; a set missing there has the reference's acting terms:
-    0)."""
+    0; frequencies None: a settled set's, ``_point_spectra``)."""
     f_ref, V_ref, q_ref = ref_spectrum
     amplitude = modal_amplitude(excitation, q_max, q_ref)
     mix = mixing(body, a, s, q_max, sigma_allow, amplitude)
@@ -370,7 +381,7 @@ def _at(body, ref: Model, models, a, s, q_max, sigma_allow, stiff, excitation, r
     out = np.zeros((len(models), len(KINDS)))
     for i, (f, V, q) in spectra.items():
         model = models[i]
-        out[i] = (_matched_error(f_ref, V_ref, f, V),
+        out[i] = (np.inf if f is None else _matched_error(f_ref, V_ref, f, V),
                   0.0 if model.on("cor_coupling") or not ref.on("cor_coupling") else mix,
                   static_error(body, q, q_ref, q_max, sigma_allow,
                                widening if ref.on("cf1") and not model.on("cf1") else 0.0),

@@ -57,6 +57,13 @@ def static_deflection(model: Model, w: np.ndarray) -> np.ndarray:
     return np.linalg.solve(K, f0)
 
 
+def spin_vector(axis, s: float) -> tuple[np.ndarray, np.ndarray]:
+    """(the unit axis, the angular velocity ``w = s a``) of a steady spin ``s`` about ``axis``."""
+    a = np.asarray(axis, float)
+    a = a / np.linalg.norm(a)
+    return a, s * a
+
+
 def _static_stiffness(model: Model, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(K, f0): the flexible force at spin w is ``f0 - K q`` (K: Omega^2 - s^2 Kc + s^2 G for the full set)."""
     nf, zero = model.nf, np.zeros(model.nf)
@@ -127,9 +134,7 @@ def _linearised(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[Lin
     """(the linearisation, the q parts of its modes' eigenvectors (nf, n) in ascending frequency, all the
     eigenvectors as columns of (w, q, q')); ``jac``: ``jacobian`` or a ``compiled_jacobian``; ``q``: the static
     deflection at the spin where the caller has it."""
-    a = np.asarray(axis, float)
-    a = a / np.linalg.norm(a)
-    w = s * a
+    a, w = spin_vector(axis, s)
     q = static_deflection(model, w) if q is None else q
     x = np.concatenate([w, q, np.zeros(model.nf)])
     mu, V = np.linalg.eig(jac(model, x))
@@ -220,9 +225,8 @@ def campbell_speeds(k: int, speed: float, s_crits, points: int, margin: float) -
 def _campbell_point(model: Model, axis, s: float, jac) -> tuple[np.ndarray, np.ndarray, str]:
     """(frequencies, shapes (nf, n), gap) at one speed of ``campbell``; gap "singular" or "unstable" (then the
     frequencies are not to be drawn) or ""."""
-    a = np.asarray(axis, float)
-    a = a / np.linalg.norm(a)
-    K, f0 = _static_stiffness(model, s * a)
+    a, w = spin_vector(axis, s)
+    K, f0 = _static_stiffness(model, w)
     lam = np.linalg.eigvalsh(0.5 * (K + K.T))  # K is symmetric (Omega^2 - s^2 Kc + s^2 G and the like)
     none = np.array([]), np.zeros((model.nf, 0))
     if np.abs(lam).min() < SINGULAR * np.abs(model.eigenvalues).min():

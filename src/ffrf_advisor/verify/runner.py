@@ -273,7 +273,7 @@ def _runs(work: _Work, jobs: int, progress, untimed) -> tuple[dict, list[SetResu
     n = len(work.scenes) * (1 + len(work.sets))
     pairs = [(i, j) for i in range(len(work.scenes)) for j in range(len(work.sets))]
     try:
-        with mapper(jobs) as map_, threads(min(2, cpus())) as threaded:  # its threads start with its first task
+        with mapper(jobs) as map_, threads(min(2, cpus())) as threaded:  # its threads start with its map
             # The references time nothing: beside one job they take two threads (DOP853 releases the GIL).
             refs = _told((threaded if jobs <= 1 else map_)(_reference_run, range(len(work.scenes))), progress, 0,
                          n, lambda i: f"reference {work.scenes[i].label}")

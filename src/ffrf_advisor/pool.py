@@ -76,12 +76,23 @@ def _daemon_map(n: int, fn, items: list, left):
 
     def arrive():
         for i, event in enumerate(ready):
-            event.wait()
+            awake(event.wait)
             ok, value = results[i]
             if not ok:
                 raise value
             yield value
     return arrive()
+
+
+WAKE_S = 0.1  # how often a waiting caller wakes to take a signal (Ctrl-C) that another thread received
+
+
+def awake(wait) -> None:
+    """``wait(timeout)`` until it returns true, waking every WAKE_S: the kernel may deliver a signal to any
+    thread (a worker, an OpenBLAS thread), and the main thread, which runs Python's handlers, sees it only when
+    it wakes (a wait without timeout slept on through Ctrl-C until the running tasks ended)."""
+    while not wait(WAKE_S):
+        pass
 
 
 def beside(fn):
@@ -101,7 +112,7 @@ def beside(fn):
     thread.start()
 
     def wait():
-        thread.join()
+        awake(lambda timeout: thread.join(timeout) or not thread.is_alive())
         if "error" in box:
             raise box["error"]
         return box["result"]

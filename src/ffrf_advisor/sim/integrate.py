@@ -11,6 +11,7 @@ invariant of the kinematics) up to its Newton tolerance.
 """
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -153,6 +154,31 @@ def compile_ahead(names) -> None:
              "jacobian": lambda: kernels.jacobian_into.compile((i8, F1, F1, F2, M))}
     for name in names:
         ahead[name]()
+
+
+def compile_beside(names) -> None:
+    """``compile_ahead(names)``, then the right-hand side: where numba compiles (the first run after installing),
+    the right-hand side, the largest piece, in a second process beside this one's ``names``, then loaded from
+    numba's cache (the integrators compile without it, ``compile_ahead``); where everything is cached, only
+    loads. A helper that fails leaves the right-hand side to this process."""
+    import subprocess
+    import sys
+
+    from .kernels import on_compile
+    helpers: list = []
+    helper = (f"from {__package__.rpartition('.')[0]}.io.guard import die_with_parent; "
+              f"die_with_parent({os.getpid()}); from {__name__} import compile_ahead; compile_ahead(('rhs',))")
+    try:
+        with on_compile(lambda: helpers.append(subprocess.Popen([sys.executable, "-c", helper],
+                                                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                                                stderr=subprocess.DEVNULL))):
+            compile_ahead(names)
+        for process in helpers:
+            process.wait()
+    finally:
+        for process in helpers:
+            process.kill()  # only one still running: this one was interrupted
+    compile_ahead(("rhs",))
 
 
 def compiled_args(m: Model) -> tuple[int, tuple]:

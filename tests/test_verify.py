@@ -437,6 +437,8 @@ def test_ctrl_c_while_the_references_run_ends_the_process_at_once(to_worker):
     import signal
     script = f"""
 import os, signal, threading, time
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as on a terminal: a job started in the background by a
+# shell without job control (CI) starts with SIGINT ignored, which Python then keeps
 from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.guidelines import Situation
 from ffrf_advisor.io import read_body

@@ -248,6 +248,7 @@ def test_lagrangian_sets_conserve_energy_and_momentum_and_others_drift(spinning)
         assert max(dE, dH) > 1e-5, (terms, dE, dH)
 
 
+@pytest.mark.slow
 def test_the_papers_printed_coriolis_form_loses_angular_momentum(spinning):
     """G16 prints the rotational Coriolis force as the complete one plus -w~ C q' (theory section 5):
     with it |H| drifts, with the verified form it is kept to the integrator's tolerance."""

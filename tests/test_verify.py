@@ -428,7 +428,8 @@ except KeyboardInterrupt:
     assert time.perf_counter() - start < 30  # the process too: its exit joined no study
 
 
-@pytest.mark.parametrize("to_worker", [False, True], ids=["to the process", "to a reference thread"])
+@pytest.mark.parametrize("to_worker", [pytest.param(False, marks=pytest.mark.slow), True],
+                         ids=["to the process", "to a reference thread"])
 def test_ctrl_c_while_the_references_run_ends_the_process_at_once(to_worker):
     """SIGINT while both reference threads run (here each would take 60 s; a compiled kernel sees no signal):
     the process ends within seconds, not after the running references, whichever thread the kernel delivers

@@ -121,9 +121,48 @@ def beside(fn):
 
 @contextmanager
 def mapper(jobs: int, chunksize: int = 1):
-    """An ordered ``map`` over ``jobs`` local processes (the builtin ``map`` for one job)."""
+    """An ordered ``map`` over ``jobs`` local processes (the builtin ``map`` for one job), ``chunksize`` items a
+    hand-out, as the pool's own map, each result waited for in WAKE_S slices (``awake``: a SIGINT the kernel
+    hands to the pool's manager thread is seen at once, not when the next chunk ends); interrupted, it ends
+    without waiting for the running tasks (``_stop``)."""
     if jobs <= 1:
         yield map
         return
-    with local_pool(jobs) as pool:
-        yield lambda fn, *items: pool.map(fn, *items, chunksize=chunksize)
+    pool = local_pool(jobs)
+    try:
+        yield lambda fn, *items: _chunked(pool, fn, list(zip(*items)), chunksize)
+    except BaseException:
+        _stop(pool)
+        raise
+    pool.shutdown()
+
+
+def _stop(pool) -> None:
+    """End an interrupted pool at once: its workers terminated (the results of their tasks nobody reads) and the
+    pool shut down without waiting, which would wait for the tasks running."""
+    import multiprocessing
+    for worker in multiprocessing.active_children():  # the pool's: the tool starts no other multiprocessing child
+        worker.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _chunked(pool, fn, args: list, chunksize: int):
+    """Submit ``fn(*a)`` for every ``a`` of ``args``, ``chunksize`` at a time; return the results in order as
+    they arrive (the chunks not started are cancelled when the caller stops reading)."""
+    from concurrent.futures import wait
+    chunks = [pool.submit(_calls, fn, args[i:i + chunksize]) for i in range(0, len(args), chunksize)]
+
+    def arrive():
+        try:
+            for chunk in chunks:
+                awake(lambda timeout, chunk=chunk: bool(wait([chunk], timeout).done))
+                yield from chunk.result()
+        finally:
+            for chunk in chunks:
+                chunk.cancel()
+    return arrive()
+
+
+def _calls(fn, args: list) -> list:
+    """``fn(*a)`` for each ``a`` of a chunk, in a worker."""
+    return [fn(*a) for a in args]

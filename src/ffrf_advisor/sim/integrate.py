@@ -164,6 +164,7 @@ def compile_beside(names) -> None:
     import subprocess
     import sys
 
+    from ..pool import awake
     from .kernels import on_compile
     helpers: list = []
     helper = (f"from {__package__.rpartition('.')[0]}.io.guard import die_with_parent; "
@@ -173,12 +174,22 @@ def compile_beside(names) -> None:
                                                                 stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                                                 stderr=subprocess.DEVNULL))):
             compile_ahead(names)
-        for process in helpers:
-            process.wait()
+        for process in helpers:  # at most one: numba's first compile starts it
+            awake(lambda timeout: _ended(process, timeout))
     finally:
         for process in helpers:
-            process.kill()  # only one still running: this one was interrupted
+            process.kill()  # still running only when this process was interrupted
     compile_ahead(("rhs",))
+
+
+def _ended(process, timeout: float) -> bool:
+    """Whether ``process`` (a Popen) ended within ``timeout`` seconds."""
+    import subprocess
+    try:
+        process.wait(timeout)
+    except subprocess.TimeoutExpired:
+        return False
+    return True
 
 
 def compiled_args(m: Model) -> tuple[int, tuple]:

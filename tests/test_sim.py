@@ -109,7 +109,8 @@ def _contribution(body, name, q, qd, w):
     with_term = build_model(body, ("gyro0", name))
     zf = np.zeros(body.nf)
     dm = eq.inertia(with_term, q) - (0 if name == "gyro0" else eq.inertia(base, q))
-    fr = eq.rotational_force(with_term, q, qd, w, np.zeros(3)) - (0 if name == "gyro0" else eq.rotational_force(base, q, qd, w, np.zeros(3)))
+    fr = eq.rotational_force(with_term, q, qd, w, np.zeros(3)) - (0 if name == "gyro0" else
+                                                                  eq.rotational_force(base, q, qd, w, np.zeros(3)))
     ff = eq.flexible_force(with_term, q, qd, w, zf) - eq.flexible_force(base, q, qd, w, zf)
     return dm, fr, ff
 
@@ -371,7 +372,8 @@ def test_simulate_command_writes_a_csv_that_parses_back(tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--integrator", "euler"], "--integrator"), (["--terms", "cor_full"], "--terms"),
-    (["--integrator", "rk4"], "rk4: a fixed-step method; expected --step"), (["--omega0", "1,2,3,4"], "--omega0"), (["--q0", "x"], "--q0"),
+    (["--integrator", "rk4"], "rk4: a fixed-step method; expected --step"), (["--omega0", "1,2,3,4"], "--omega0"),
+    (["--q0", "x"], "--q0"),
     (["--t-end", "-1"], "--t-end"), (["-o", "out.txt"], "output")])
 def test_simulate_bad_options_exit_2_in_one_line(tmp_path, args, message):
     t_end = [] if "--t-end" in args else ["--t-end", "0.001"]

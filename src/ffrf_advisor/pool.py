@@ -95,6 +95,19 @@ def awake(wait) -> None:
         pass
 
 
+def ended(process) -> None:
+    """Wait for ``process`` (a Popen) to end, in WAKE_S slices (``awake``)."""
+    import subprocess
+
+    def within(timeout: float) -> bool:
+        try:
+            process.wait(timeout)
+        except subprocess.TimeoutExpired:
+            return False
+        return True
+    awake(within)
+
+
 def beside(fn):
     """``fn()`` started on a thread beside the caller's (work that times nothing); returns ``wait()``, which gives
     its result or raises its exception. The thread is a daemon: an interrupted run (Ctrl-C) ends at once instead

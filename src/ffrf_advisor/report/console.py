@@ -166,14 +166,16 @@ def fitted_table(console: Console, title: str, headers, rows, left=(), prose: st
     widths = [max(words(k)) if h == prose else max([len(r[k]) for r in rows] + [len(w) for w in plain[k].split()])
               for k, h in enumerate(headers)]
     frame = 3 * len(widths) + 1
+    wraps = False  # a prose value wraps in its cell
     if prose in headers:
         k = headers.index(prose)
         widths[k] = max(widths[k], min(max(len(r[k]) for r in rows), console.width - frame - sum(widths) + widths[k]))
+        wraps = any(len(r[k]) > widths[k] for r in rows)
     if sum(widths) + frame <= console.width:
         t = Table(title=title)
         for h, w in zip(headers, widths):
             t.add_column(h, justify="left" if h in left or h == prose else "right", width=w)
-        if prose in headers and any(len(r[k]) > widths[k] for r in rows):
+        if wraps:
             for row in rows:
                 t.add_row(*row)
         elif rows:

@@ -164,7 +164,7 @@ def compile_beside(names) -> None:
     import subprocess
     import sys
 
-    from ..pool import awake
+    from ..pool import ended
     from .kernels import on_compile
     helpers: list = []
     helper = (f"from {__package__.rpartition('.')[0]}.io.guard import die_with_parent; "
@@ -175,21 +175,12 @@ def compile_beside(names) -> None:
                                                                 stderr=subprocess.DEVNULL))):
             compile_ahead(names)
         for process in helpers:  # at most one: numba's first compile starts it
-            awake(lambda timeout: _ended(process, timeout))
+            ended(process)
     finally:
         for process in helpers:
             process.kill()  # still running only when this process was interrupted
     compile_ahead(("rhs",))
 
-
-def _ended(process, timeout: float) -> bool:
-    """Whether ``process`` (a Popen) ended within ``timeout`` seconds."""
-    import subprocess
-    try:
-        process.wait(timeout)
-    except subprocess.TimeoutExpired:
-        return False
-    return True
 
 
 def compiled_args(m: Model) -> tuple[int, tuple]:

@@ -155,7 +155,8 @@ def test_a_terminated_writer_leaves_no_temporary_and_a_killed_ones_is_swept(tmp_
     import time
     script = ("import sys, time\nfrom ffrf_advisor.io.atomic import atomic_path\n"
               "with atomic_path(sys.argv[1]) as tmp:\n    tmp.write_bytes(b'x' * 1000)\n"
-              "    print('ready', flush=True)\n    time.sleep(60)\n")
+              "    print('ready', flush=True)\n    for _ in range(600):\n        time.sleep(0.1)\n")
+    # a writer at work (in slices: a SIGTERM handled just before one long sleep is acted on when it ends)
     target = tmp_path / "out.ffrf.h5"
     for sig in (signal.SIGTERM, signal.SIGKILL):
         child = subprocess.Popen([sys.executable, "-c", script, str(target)], stdout=subprocess.PIPE,

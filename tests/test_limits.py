@@ -178,16 +178,41 @@ def test_the_reading_child_never_outlives_its_parent(tmp_path, how):
     child = int(pidfile.read_text())
     parent.send_signal(how)
     parent.wait(timeout=120)  # a loaded machine may be slow to reap it
+    assert _ends(child), f"the child {child} outlived its parent ({how.name})"
+
+
+def _ends(pid: int) -> bool:
+    """Whether the process ``pid`` is gone (or a zombie waiting for init) within 5 s; if not, it is killed."""
     for _ in range(250):
         try:
-            os.kill(child, 0)
+            os.kill(pid, 0)
         except ProcessLookupError:
-            return
-        if Path(f"/proc/{child}/stat").read_text().split()[2] == "Z":  # a zombie waiting for init: dead
-            return
+            return True
+        if Path(f"/proc/{pid}/stat").read_text().split()[2] == "Z":
+            return True
         time.sleep(0.02)
-    os.kill(child, signal.SIGKILL)
-    pytest.fail(f"the child {child} outlived its parent ({how.name})")
+    os.kill(pid, signal.SIGKILL)
+    return False
+
+
+def test_a_ctrl_c_another_thread_receives_ends_a_guarded_read_at_once(tmp_path):
+    """The kernel may hand a signal to any thread; Python runs its handler in the main thread, which waits for
+    the reading child in slices (guard._readable) and so ends within one, not at the read's deadline (30 s)."""
+    pidfile = tmp_path / "pid"
+    pidfile.write_text("")
+    to_a_thread = ("import threading\ndef interrupt():\n    time.sleep(1.0)\n"
+                   "    signal.pthread_kill(threading.get_ident(), signal.SIGINT)\n"
+                   "threading.Thread(target=interrupt).start()\n")
+    script = PARENT.replace("guard.run(", to_a_thread + "guard.run(", 1)
+    parent = subprocess.Popen([sys.executable, "-c", script, str(pidfile)], stderr=subprocess.PIPE, text=True)
+    try:
+        err = parent.communicate(timeout=20)[1]
+    except subprocess.TimeoutExpired:
+        parent.kill()
+        err = None
+    assert pidfile.read_text() and _ends(int(pidfile.read_text()))
+    assert err is not None, "the read slept on through the SIGINT until its deadline"
+    assert "KeyboardInterrupt" in err
 
 
 def test_a_broken_dataset_in_a_large_valid_file_is_read_only_when_needed(tmp_path):

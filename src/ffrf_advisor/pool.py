@@ -5,6 +5,7 @@ import os
 from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
+from .io.atomic import WAKE_S
 from .io.guard import die_with_parent
 
 if TYPE_CHECKING:
@@ -82,9 +83,6 @@ def _daemon_map(n: int, fn, items: list, left):
                 raise value
             yield value
     return arrive()
-
-
-WAKE_S = 0.1  # how often a waiting caller wakes to take a signal (Ctrl-C) that another thread received
 
 
 def awake(wait) -> None:

@@ -21,6 +21,7 @@ from typing import Iterator
 from ..errors import FFRFError
 
 
+WAKE_S = 0.1  # how often a waiting main thread wakes to run a signal's handler (below)
 _RUN_INPUTS: ContextVar[list[Path] | None] = ContextVar("run_inputs", default=None)
 _TEMPORARIES: set[Path] = set()  # this process's temporaries being written
 _CHILDREN: set[int] = set()  # this process's forked children (io.guard), killed before the temporaries go
@@ -141,7 +142,9 @@ def _fsync(path: Path) -> None:
 def terminate_cleanly():
     """Within it (main thread only), SIGTERM removes this process's temporaries and ends the process at once
     with 128 + 15. An exception raised from the handler instead could land in a C or weakref callback, be
-    printed as ignored, and let the run finish as if nothing happened."""
+    printed as ignored, and let the run finish as if nothing happened. Python runs the handler in the main
+    thread between bytecodes; a signal that arrives just before a blocking call (or in another thread) is seen
+    when the call returns, so the main thread waits in slices of WAKE_S (``pool.awake``, ``guard._readable``)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return

@@ -36,7 +36,7 @@ import time
 from contextlib import contextmanager
 
 from ..errors import BodyFileError, FFRFError
-from .atomic import forked_child, kill_and_reap
+from .atomic import WAKE_S, forked_child, kill_and_reap
 from .limits import ENV, human, max_bytes
 
 BASE_SECONDS = 30.0  # a valid file reads in well under this ...
@@ -349,9 +349,12 @@ def _address_space() -> int:
 
 
 def _readable(fd: int, deadline: float) -> bool:
-    """Wait until ``fd`` has data (or its end); False past the ``deadline`` (time.monotonic)."""
-    left = deadline - time.monotonic()
-    return left > 0 and bool(select.select([fd], [], [], None if left == float("inf") else left)[0])
+    """Wait until ``fd`` has data (or its end); False past the ``deadline`` (time.monotonic). In slices of
+    WAKE_S: a SIGTERM or Ctrl-C handled just before the wait ends the run at once, not when the child ends."""
+    while (left := deadline - time.monotonic()) > 0:
+        if select.select([fd], [], [], min(left, WAKE_S))[0]:
+            return True
+    return False
 
 
 def _collect(fd: int, deadline: float) -> bytes | None:

@@ -200,9 +200,10 @@ def test_a_ctrl_c_another_thread_receives_ends_a_guarded_read_at_once(tmp_path):
     the reading child in slices (guard._readable) and so ends within one, not at the read's deadline (30 s)."""
     pidfile = tmp_path / "pid"
     pidfile.write_text("")
-    to_a_thread = ("import threading\ndef interrupt():\n    time.sleep(1.0)\n"
+    to_a_thread = ("import threading\ndef interrupt():\n"  # once the child runs (it writes its pid), in the wait
+                   "    while not open(sys.argv[1]).read():\n        time.sleep(0.02)\n    time.sleep(0.5)\n"
                    "    signal.pthread_kill(threading.get_ident(), signal.SIGINT)\n"
-                   "threading.Thread(target=interrupt).start()\n")
+                   "threading.Thread(target=interrupt, daemon=True).start()\n")
     script = PARENT.replace("guard.run(", to_a_thread + "guard.run(", 1)
     parent = subprocess.Popen([sys.executable, "-c", script, str(pidfile)], stderr=subprocess.PIPE, text=True)
     try:

@@ -14,7 +14,7 @@ from ffrf_advisor.guidelines import Situation
 from ffrf_advisor.io import read_body
 from ffrf_advisor.report.console import campbell_line
 from ffrf_advisor.report.verify_figures import campbell_chart
-from ffrf_advisor.sim.linearise import campbell
+from ffrf_advisor.sim.linearise import campbell, linearise, unstable
 from ffrf_advisor.sim.model import build_model
 from ffrf_advisor.significance import softening_speeds
 from ffrf_advisor.terms import FULL
@@ -125,6 +125,18 @@ def test_the_conrod_flutters_where_mode_1_meets_the_wobble_and_has_a_gap_there_n
     assert np.isfinite(f[:37]).all() and np.isnan(f[37:]).all()
     assert jumps(f, speeds) == []
     assert np.abs(np.diff(f[:37], axis=0)).max() < 0.02 * np.nanmax(f)  # a branch swap jumps by a mode's spacing
+
+
+def test_stability_from_the_eigenvalues_alone_is_the_linearisations():
+    """``unstable`` (eigenvalues only, for the mode-set advice) against ``linearise(...).unstable`` across the
+    conrod's flutter band and past its softening limit: the same verdicts, both kinds present."""
+    body = read_body(DIR / "conrod.ffrf.h5")
+    s_crit = softening_speeds(body)[1]
+    model = build_model(body, FULL)
+    speeds = [0.5 * s_crit, *np.linspace(0.6 * s_crit * 34 / 39, 0.6 * s_crit, 6), 1.05 * s_crit]
+    verdicts = [linearise(model, np.eye(3)[1], s).unstable for s in speeds]
+    assert [unstable(model, np.eye(3)[1], s) for s in speeds] == verdicts
+    assert verdicts[0] is False and verdicts[-1] is True and True in verdicts[1:-1] and False in verdicts[1:-1]
 
 
 def test_the_errors_compare_with_the_scenes_reference_about_their_axis_at_their_speed(beam, scene, camp):

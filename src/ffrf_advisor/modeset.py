@@ -532,7 +532,6 @@ def _spun(w: np.ndarray, scene: SceneDemand, kept, residual, loads: InertiaLoads
     peak response to the scene's rise (``response_factors``); with them, which hold those static parts and
     answer at their own Rayleigh frequency like the reference's, a dropped mode errs by the difference of the
     two peaks (``_remainder_hz``)."""
-    from .sim.linearise import _static_stiffness
     ix = list(scene.cases)
     c = coefficients(w)[ix]
     energy = _energy(loads, ix, c)
@@ -540,10 +539,10 @@ def _spun(w: np.ndarray, scene: SceneDemand, kept, residual, loads: InertiaLoads
         return None
     model, f_hz = setting.model, setting.f_hz
     lam = model.eigenvalues
-    Ks, f0 = _static_stiffness(model, w)
-    if np.linalg.eigvalsh((Ks + Ks.T) / 2).min() <= 0 or _unstable(model, w, scene):
+    static = setting.static_at(w, scene.prescribed)
+    if static is None:
         return np.nan, np.nan, np.nan, np.zeros(model.nf)
-    q = np.linalg.solve(Ks, f0)
+    Ks, f0, q = static
     if setting.reach is not None and float(np.abs(q) @ setting.reach) > SMALL_DEFORMATION:
         return np.nan, np.nan, np.nan, np.zeros(model.nf)  # beyond small deformations: linear modes do not apply
     rest = _beyond(loads, ix, c, lam, energy)
@@ -604,6 +603,7 @@ class _Setting:
     f_hz: np.ndarray
     reach: np.ndarray | None
     seconds: float = 1.0  # per time unit of the body
+    statics: dict = field(default_factory=dict, compare=False, repr=False)  # ``static_at`` per spin
 
     @classmethod
     def of(cls, body: FlexibleBody, terms) -> "_Setting":
@@ -611,16 +611,24 @@ class _Setting:
         reach = None if nodal is None else nodal.max_deflection / nodal.largest_dimension
         return cls(build_model(body, terms), body.frequencies_hz, reach, float(TIME[body.units.time]))
 
+    def static_at(self, w: np.ndarray, prescribed: bool) -> tuple | None:
+        """(K_s, f0, q) of the term set at spin w: its static stiffness, load and deflection (``K_s q = f0``,
+        sim.linearise); None where the spin has no stable small deflection: K_s not positive definite, or a free
+        spin unstable by the linearisation (theory 10: its axis then wanders and loads cases the scene's nominal
+        spin does not; a prescribed spin cannot wander). Kept per spin: the widening asks again for each basis."""
+        key = (*map(float, w), prescribed)
+        if key not in self.statics:
+            self.statics[key] = self._static(w, prescribed)
+        return self.statics[key]
 
-def _unstable(model, w: np.ndarray, scene: SceneDemand) -> bool:
-    """Whether a free body's steady spin w is unstable by the term set's linearisation (sim.linearise, theory
-    10): its spin axis then wanders and loads cases the scene's nominal spin does not (a prescribed spin cannot
-    wander)."""
-    from .sim.linearise import linearise
-    if scene.prescribed:
-        return False
-    s = float(np.linalg.norm(w))
-    return bool(linearise(model, w / s, s).unstable)
+    def _static(self, w: np.ndarray, prescribed: bool) -> tuple | None:
+        from .sim.linearise import _static_stiffness, unstable
+        Ks, f0 = _static_stiffness(self.model, w)
+        if np.linalg.eigvalsh((Ks + Ks.T) / 2).min() <= 0:
+            return None
+        q = np.linalg.solve(Ks, f0)
+        s = float(np.linalg.norm(w))
+        return None if not prescribed and unstable(self.model, w / s, s, q) else (Ks, f0, q)
 
 
 def _energy(loads: InertiaLoads, ix, c: np.ndarray) -> float:

@@ -56,10 +56,11 @@ def _print_json(data) -> None:
 
 
 def _importing(*modules: str):
-    """Within: this package's ``modules`` (what a command uses after its read) are imported while the reading
-    child parses the body file (io.guard.importing_meanwhile)."""
+    """Within: ``modules`` (what a command uses after its read; ".name" for this package's) are imported while
+    the reading child parses the body file (io.guard.importing_meanwhile)."""
+    from importlib.util import resolve_name
     from .io.guard import importing_meanwhile
-    return importing_meanwhile(*(f"{__package__}.{m}" for m in modules))
+    return importing_meanwhile(*(resolve_name(m, __package__) for m in modules))
 
 
 def run_analysis(body, options):
@@ -279,7 +280,7 @@ def info(body: Path = typer.Argument(..., help="Body file (any format, see `form
          eigenvalues: Eigenvalues = None, density: Density = None, units: UnitSystem = None,
          as_json: InfoJson = False):
     """Mass, CoM, I0, eigenfrequencies, modal stress and the checks of theory section 4."""
-    with _importing("checks", "report.console", "report.json_out"):
+    with _importing(".checks", ".report.console", ".report.json_out"):
         b = read_any(body, eigenvalues, density, load_fe=False, units=units)
     from .checks import run_checks
     from .report.console import body_summary
@@ -297,7 +298,7 @@ def info(body: Path = typer.Argument(..., help="Body file (any format, see `form
 def analyze(body: Path = typer.Argument(..., help="Body file."), as_json: AsJson = False, *,
             args: AnalysisArgs):
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
-    with _importing("modeset", "report.console", "report.json_out", "report.modes_out"):
+    with _importing(".modeset", ".report.console", ".report.json_out", ".report.modes_out"):
         b = args.read(body, load_fe="summary")
     from .modeset import ANALYZE_SCENES, advise_modes
     from .report.console import analysis_summary
@@ -623,17 +624,20 @@ def modes(body: Path = typer.Argument(..., help="Body file (with FE data: residu
     where the static error is above the tolerance, the predicted error and the cost saved; --verify proves it."""
     from .io import write_body
     from .io.atomic import check_target
-    from .modeset import INERTIAL_SCENES, advise_modes, inertia_loads, reduced_body
-    from .report.modes_out import modes_json, modes_report, proof_json, proof_report
-    names = tuple(scene or INERTIAL_SCENES)
-    if unknown := [n for n in names if n not in SCENES]:
+    if unknown := [n for n in scene or () if n not in SCENES]:
         raise FFRFError(f"--scene {unknown[0]!r}: expected one of {', '.join(SCENES)}")
     if output is not None:
         check_target(output, force)
         _writable(output)
     if figures is not None and not verify:
         raise FFRFError("--figures: expected --verify too (the chart is of the simulation)")
-    result = run_analysis(args.read(body), args.options(_note))
+    # while the child reads: what follows, and scipy.sparse.linalg for the FE static solves of inertia_loads
+    with _importing(".analysis", ".modeset", ".report.modes_out", "scipy.sparse.linalg"):
+        read = args.read(body)
+    from .modeset import INERTIAL_SCENES, advise_modes, inertia_loads, reduced_body
+    from .report.modes_out import modes_json, modes_report, proof_json, proof_report
+    names = tuple(scene or INERTIAL_SCENES)
+    result = run_analysis(read, args.options(_note))
     loads = inertia_loads(result.body)
     advice = advise_modes(result, names, f_max=f_max, loads=loads)
     if output is not None:

@@ -23,6 +23,7 @@ from ffrf_advisor.fe_body import fe_body
 from ffrf_advisor.guidelines import Situation
 from ffrf_advisor.io import read_body
 from ffrf_advisor.predict import MARGIN
+from ffrf_advisor.zoo import zoo_body
 from ffrf_advisor.modeset import (CASES, advise_modes, coefficients, euler_factors, inertia_loads,
                                   modal_loads_from_invariants, participation, reduced_body, response_factors,
                                   rising_load, scene_demands)
@@ -123,12 +124,25 @@ def test_modes_in_band_are_kept_and_a_high_f_max_keeps_every_mode(advised):
     a, loads, adv = advised
     for m in adv.modes:
         inside = any(m.f_hz <= adv.band * s.f_exc for s in adv.scenes)
-        assert m.keep == (inside or m.participation > adv.tolerance or m.rule == "spun")
+        assert m.keep == (inside or m.participation > adv.tolerance or m.rule in ("spun", "partner"))
         assert m.decision == (f"keep ({m.rule})" if m.keep else "drop") and bool(m.rule) == m.keep
         assert (m.rule != "band" or inside) and (m.rule != "share" or m.participation > adv.tolerance)
     wide = advise_modes(a, f_max=1e6, loads=loads)
     assert wide.kept == tuple(range(a.body.nf)) and all(m.reason.startswith("keep: in band") for m in wide.modes)
     assert {m.decision for m in wide.modes} == {"keep (band)"}
+
+
+def test_a_degenerate_pair_is_kept_whole():
+    """A ring spun to 1000 rad/s: the spin keeps one mode of an n-pair (its error without it) whose partner of the
+    same frequency carries none of the loads in the eigensolver's basis (a share of 1e-21): which of the two a
+    load meets is that basis' choice, so the partner joins (``keep (partner)``, dropped before)."""
+    a = analyze(zoo_body("ring", 1000), Options(situation=Situation(w_op=1000.0)))
+    adv = advise_modes(a)
+    f = a.body.frequencies_hz
+    for k in adv.kept:
+        assert all(j in adv.kept for j in np.flatnonzero(np.abs(f - f[k]) <= 1e-6 * f[k])), (k, adv.kept)
+    partners = [m for m in adv.modes if m.rule == "partner"]
+    assert partners and all(m.participation < 1e-15 and "same frequency as mode" in m.reason for m in partners)
 
 
 def test_response_factors_equal_an_integrated_oscillator():

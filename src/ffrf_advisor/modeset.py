@@ -35,6 +35,9 @@ from .units import TIME
 
 EULER = ("dw1/dt", "dw2/dt", "dw3/dt")  # no load on free modes at q = 0 (theory 12)
 BAND = 2.0        # modes up to BAND * f_exc respond dynamically (theory 12: the literature's 1.5-2)
+SAME_FREQUENCY = 1e-6  # modes whose frequencies agree this closely (relative) span one eigenspace as far as the
+# data tell: FE eigensolvers resolve eigenvalues to 1e-8..1e-12 (the zoo's pairs: 1e-10..1e-12), single precision
+# to 1e-7; a mesh's asymmetry splits a pair by more and fixes its orientation
 INERTIAL_SCENES = ("spin-up", "torque-pulse", "minor-axis")  # scenes only the rigid motion drives
 ANALYZE_SCENES = ("spin-up", "torque-pulse")  # analyze's summary line: bounded from the invariants cache alone
 
@@ -178,8 +181,8 @@ def scene_demands(a: Analysis, names, tolerance: float, f_max: float | None = No
 @dataclass(frozen=True)
 class ModeChoice:
     """One mode's decision: its largest share of an applied case's static energy and of a case's peak stress
-    (NaN where unknown), kept or dropped, the rule that kept it (``rule``: "started", "band", "share" or
-    "spun"; "" when dropped) and the reason in words."""
+    (NaN where unknown), kept or dropped, the rule that kept it (``rule``: "started", "band", "share", "spun"
+    or "partner"; "" when dropped) and the reason in words."""
 
     mode: int
     f_hz: float
@@ -194,7 +197,7 @@ class ModeChoice:
 
     @property
     def decision(self) -> str:
-        """'keep (started)', 'keep (band)', 'keep (share)', 'keep (spun)' or 'drop'."""
+        """'keep (started)', 'keep (band)', 'keep (share)', 'keep (spun)', 'keep (partner)' or 'drop'."""
         return f"keep ({self.rule})" if self.keep else "drop"
 
 
@@ -362,14 +365,14 @@ def advise_modes(a: Analysis, names=INERTIAL_SCENES, tolerance: float | None = N
     applied = sorted({j for s in scenes for j in s.cases})
     share = _stress_share(body, loads)
     modes = [_choice(k, body, scenes, p, share, applied, tol, band) for k in range(body.nf)]
-    kept, notes = tuple(m.mode for m in modes if m.keep), []
+    kept, notes = _with_partners(tuple(m.mode for m in modes if m.keep), modes, body.frequencies_hz), []
     floor = FLOOR * a.amplitudes.sigma_allow
     weight = {j: _weight(loads.sigma[j] * max(s.speed for s in scenes if j in s.cases) ** 2, floor)
               for j in applied}
     cases = [_case_error(j, kept, body, loads, p, tol, weight[j]) for j in applied]
     residual = tuple(j for j, c in zip(applied, cases) if c.residual)
     if not kept and not residual:
-        kept = (0,)
+        kept = _with_partners((0,), modes, body.frequencies_hz)
         notes.append("no mode is needed within the tolerance; mode 1 kept so that the body has one")
         cases = [_case_error(j, kept, body, loads, p, tol, weight[j]) for j in applied]
     scenes = [replace(s, weights=tuple(_weight(_stress_at(loads, s.cases, w), floor) for w in s.directions))
@@ -423,7 +426,23 @@ def _widened(kept, residual, modes: list, scenes, loads: InertiaLoads, setting: 
         k = max(dropped, key=lambda k: worst[3][k])
         modes[k] = replace(modes[k], rule="spun", reason=f"keep: spun error {worst[2]:.2g} > {tol:g} "
                            "without it (the spin softens the body, its rise loads the deflection)")
-        kept = tuple(sorted((*kept, k)))
+        kept = _with_partners(tuple(sorted((*kept, k))), modes, setting.f_hz)
+
+
+def _with_partners(kept: tuple, modes: list, f_hz) -> tuple:
+    """``kept`` and every dropped mode of the same frequency as a kept one (to SAME_FREQUENCY), which joins as
+    ``keep (partner)``: within a degenerate eigenspace the basis is the eigensolver's choice (a ring's cos/sin
+    pair), so which of its modes a load meets depends on it, and the advice keeps the eigenspace whole;
+    ``modes`` is updated with the reason."""
+    f = np.asarray(f_hz, float)
+    joined = []
+    for k in kept:
+        for j in np.flatnonzero(np.abs(f - f[k]) <= SAME_FREQUENCY * f[k]):
+            if j not in kept and j not in joined:
+                modes[j] = replace(modes[j], rule="partner", reason=f"keep: same frequency as mode {k + 1} "
+                                   "(a degenerate pair: its basis is the eigensolver's choice)")
+                joined.append(int(j))
+    return tuple(sorted((*kept, *joined)))
 
 
 def _stress_share(body: FlexibleBody, loads: InertiaLoads) -> np.ndarray:

@@ -134,7 +134,7 @@ def _matched_error(f_ref: np.ndarray, V_ref: np.ndarray, f: np.ndarray, V: np.nd
     return float(np.max(rel[rows, cols]))
 
 
-SAME_FREQUENCY = 1e-9  # eigenvalues this close (relative) are one frequency: far above eigh's round-off (about
+SAME_EIGENVALUE = 1e-9  # eigenvalues this close (of the largest) are one frequency: far above eigh's round-off (about
 # 1e-16 x 2 nf), far below a split that beats within any response time (1e-9 of the top frequency)
 
 
@@ -149,15 +149,15 @@ def gyroscopic_transfer(om: np.ndarray, Gy: np.ndarray) -> np.ndarray:
     ``q'' + Gy q' + diag(om^2) q = 0``: the sum over its frequencies of the moduli of their contributions (exact
     for the system, all modes coupled at once). In ``z = (om q, q')`` the system is ``z' = S z`` with S real skew
     (Gy being skew), so ``-i S`` is Hermitian with real eigenvalues and orthonormal eigenvectors U (``eigh``, no
-    inverse): ``q_p(t) = (om_q / om_p) A sum_k U_pk conj(U_qk) exp(i lambda_k t)``. Eigenvalues equal to
-    SAME_FREQUENCY add before the modulus: the result is the same whatever basis the solver picks within a
+    inverse): ``q_p(t) = (om_q / om_p) A sum_k U_pk conj(U_qk) exp(i lambda_k t)``. Eigenvalues equal within
+    SAME_EIGENVALUE add before the modulus: the result is the same whatever basis the solver picks within a
     degenerate eigenspace (docs/advice.md)."""
     nf = len(om)
     O = np.diag(om)
     lam, U = np.linalg.eigh(-1j * np.block([[np.zeros((nf, nf)), O], [-O, -Gy]]))
     Uq = U[:nf]
     transfer = np.abs(Uq) @ np.abs(Uq).T
-    starts = np.flatnonzero(np.diff(lam) > SAME_FREQUENCY * max(np.abs(lam).max(), 1e-300)) + 1
+    starts = np.flatnonzero(np.diff(lam) > SAME_EIGENVALUE * max(np.abs(lam).max(), 1e-300)) + 1
     for c in np.split(np.arange(2 * nf), starts):
         if len(c) > 1:  # one frequency: its contributions add coherently
             transfer += np.abs(Uq[:, c] @ Uq[:, c].conj().T) - np.abs(Uq[:, c]) @ np.abs(Uq[:, c]).T

@@ -2,14 +2,15 @@
 from __future__ import annotations
 
 import csv
-import subprocess
-import sys
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
+from typer.testing import CliRunner
 
+from ffrf_advisor.cli import app
 from ffrf_advisor.schemas import schema
 from ffrf_advisor.io import read_body
 from ffrf_advisor.sim import equations as eq
@@ -338,8 +339,12 @@ def test_catalogue_lagrangian_sets_and_supersets():
 
 
 # ---------------------------------------------------------------- the command
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "ffrf_advisor", *map(str, args)], capture_output=True, text=True)
+def _cli(*args) -> SimpleNamespace:
+    """The command run in this process, whose compiled kernels are loaded (a new process pays about a second to
+    start): its exit code, stdout and stderr; an exception that escaped the command fails the test."""
+    r = CliRunner().invoke(app, [str(a) for a in args])
+    assert r.exception is None or isinstance(r.exception, SystemExit), r.exc_info
+    return SimpleNamespace(returncode=r.exit_code, stdout=r.stdout, stderr=r.stderr)
 
 
 def test_simulate_command_writes_a_csv_that_parses_back(tmp_path):
@@ -375,10 +380,10 @@ def test_simulate_command_writes_a_csv_that_parses_back(tmp_path):
     (["--integrator", "rk4"], "rk4: a fixed-step method; expected --step"), (["--omega0", "1,2,3,4"], "--omega0"),
     (["--q0", "x"], "--q0"),
     (["--t-end", "-1"], "--t-end"), (["-o", "out.txt"], "output")])
-def test_simulate_bad_options_exit_2_in_one_line(tmp_path, args, message):
+def test_simulate_bad_options_exit_2_in_one_line(tmp_path, monkeypatch, args, message):
+    monkeypatch.chdir(tmp_path)
     t_end = [] if "--t-end" in args else ["--t-end", "0.001"]
-    r = subprocess.run([sys.executable, "-m", "ffrf_advisor", "simulate", str(DIR / "beam.ffrf.h5"), *t_end, *args],
-                       capture_output=True, text=True, cwd=tmp_path)
+    r = _cli("simulate", DIR / "beam.ffrf.h5", *t_end, *args)
     assert r.returncode == 2 and message in r.stderr and "Traceback" not in r.stderr + r.stdout
     assert len(r.stderr.strip().splitlines()) == 1
 

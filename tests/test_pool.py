@@ -1,4 +1,5 @@
-"""The thread and process maps of pool.py: results in order, and Ctrl-C seen at once while they wait."""
+"""The thread and process maps of pool.py: results in order, and Ctrl-C seen at once while they wait; one BLAS
+thread where asked."""
 from __future__ import annotations
 
 import subprocess
@@ -7,7 +8,7 @@ import time
 
 import pytest
 
-from ffrf_advisor.pool import mapper, threads
+from ffrf_advisor.pool import mapper, one_blas_thread, threads
 
 
 def _square(x: int) -> int:
@@ -49,3 +50,19 @@ with mapper(2) as map_:
         pytest.fail("the map slept on through the SIGINT")
     assert done.returncode != 0 and "KeyboardInterrupt" in done.stderr, done.stderr
     assert time.perf_counter() - start < 15
+
+
+def test_one_blas_thread_within_and_the_previous_count_after():
+    """numpy's BLAS (the linearisations' eigensolver) runs one thread within ``one_blas_thread``, every time (the
+    controller is made once), and as many as before after it."""
+    import numpy  # noqa: F401 - its BLAS loaded
+    from threadpoolctl import threadpool_info
+
+    def counts():
+        return [i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"]
+    before = counts()
+    for _ in range(2):
+        with one_blas_thread():
+            assert counts() and set(counts()) == {1}
+        assert counts() == before
+

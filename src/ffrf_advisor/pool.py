@@ -1,6 +1,7 @@
 """Local worker processes for the commands that run many independent jobs (gate, verify, the sweep)."""
 from __future__ import annotations
 
+import functools
 import os
 from contextlib import contextmanager
 from typing import TYPE_CHECKING
@@ -29,6 +30,19 @@ def _worker(parent: int) -> None:
 
     die_with_parent(parent)
     threadpool_limits(1)
+
+
+def one_blas_thread():
+    """Within: the BLAS libraries this process had loaded when first asked use one thread each (threadpoolctl;
+    its controller, which reads the process's libraries in about 10 ms, is made once: ``threadpool_limits``
+    read them again on every call)."""
+    return _blas().limit(limits=1)
+
+
+@functools.cache
+def _blas():
+    from threadpoolctl import ThreadpoolController
+    return ThreadpoolController()
 
 
 def cpus() -> int:

@@ -52,7 +52,7 @@ from itertools import combinations
 import numpy as np
 
 from .body import FlexibleBody
-from .pool import cpus, threads
+from .pool import cpus, one_blas_thread, threads
 from .sim import equations as eq
 from .sim.cost import rhs_cost
 from .sim.linearise import best_pairs, modal_spectrum, spin_vector, static_deflection
@@ -365,8 +365,7 @@ def linearised_spectra(tasks: list[tuple[Model, np.ndarray, float]]) -> list[tup
     workers = min(2, cpus())
     if not tasks or workers < 2 or 2 * tasks[0][0].nf + 3 < THREADED_STATES:
         return [modal_spectrum(*task) for task in tasks]
-    from threadpoolctl import threadpool_limits
-    with threadpool_limits(1), threads(workers) as map_:
+    with one_blas_thread(), threads(workers) as map_:
         return list(map_(lambda task: modal_spectrum(*task), tasks))
 
 

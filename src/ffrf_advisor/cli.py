@@ -35,7 +35,8 @@ def _console(kind: str):
     an earlier run in this process (tests, notebooks); "info" is stderr, silent under --quiet."""
     if kind not in _consoles:
         from rich.console import Console
-        console = Console(stderr=kind != "out", emoji=False, highlight=False,  # emoji: names like zoo:ring:1003 stay text
+        # emoji=False: names like zoo:ring:1003 stay text
+        console = Console(stderr=kind != "out", emoji=False, highlight=False,
                           quiet=kind == "info" and _run["quiet"])
         console.width = console.width
         _consoles[kind] = console
@@ -528,8 +529,8 @@ def convert(source: Path = typer.Argument(..., help="Body file to read."),
     if transform:
         body = body.moved_to_principal_frame()
     if modes != "all":
-        body = _mode_set(body, modes, AnalysisArgs(eigenvalues=eigenvalues, density=density, units=units).options(_note),
-                         str(source))
+        options = AnalysisArgs(eigenvalues=eigenvalues, density=density, units=units).options(_note)
+        body = _mode_set(body, modes, options, str(source))
     write_body(body, target, fmt.name, overwrite=force)
     out().print(f"wrote {shown(target)} ({fmt.name}): {shown(body.name)}, {body.nf} modes"
                 + ("" if body.fe is not None else ", invariants only"))
@@ -597,8 +598,9 @@ def augment(body: Path = typer.Argument(..., help="Body file with FE data and ma
     new = add_residual_vectors(b, chosen, str(body))
     write_body(new, output, "ffrf-h5", overwrite=force)
     errors = basis_errors(new)
-    out().print(f"wrote {shown(output)}: {shown(new.name)}, {b.nf} + {len(chosen)} -> {new.nf} modes; energy-norm error of "
-                "the static centrifugal deflection about axes 1, 2, 3: " + ", ".join(f"{e:.2g}" for e in errors),
+    out().print(f"wrote {shown(output)}: {shown(new.name)}, {b.nf} + {len(chosen)} -> {new.nf} modes; "
+                "energy-norm error of the static centrifugal deflection about axes 1, 2, 3: "
+                + ", ".join(f"{e:.2g}" for e in errors),
                 highlight=False)
 
 
@@ -809,12 +811,15 @@ def _start(b, options, per_second: float, omega0: str, q0: Optional[str], qd0: O
 @handles_errors
 @analysis_options
 def verify_command(body: Path = typer.Argument(..., help="Body file."),
-                   scene: Optional[list[str]] = typer.Option(None, "--scene", help=f"Scene(s): {', '.join(SCENES)} (default all)."),
+                   scene: Optional[list[str]] = typer.Option(None, "--scene",
+                                                             help=f"Scene(s): {', '.join(SCENES)} (default all)."),
                    integrator: str = typer.Option("dop853", "--integrator", help=f"One of {', '.join(INTEGRATORS)}."),
                    step: Optional[float] = typer.Option(None, "--step", help="Step [s] of a fixed-step integrator."),
                    rtol: float = typer.Option(1e-8, "--rtol", help="Relative tolerance of an adaptive integrator."),
                    repeats: int = typer.Option(3, "--repeat", help="Timed repeats (serial; the minimum counts)."),
-                   axis: Optional[int] = typer.Option(None, "--axis", help="Principal axis of the scenes (1-3; default: each rigidly stable principal axis)."),
+                   axis: Optional[int] = typer.Option(None, "--axis", help="Principal axis of the scenes (1-3; "
+                                                                           "default: each rigidly stable principal "
+                                                                           "axis)."),
                    criterion: str = typer.Option("response", "--criterion",
                                                  help="Judge by response errors (frequencies, means, oscillation "
                                                       "sizes, peak stress) or by trajectory errors."),

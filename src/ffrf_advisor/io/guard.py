@@ -188,7 +188,8 @@ def _writer_child(fd: int, fn, args) -> None:
 # What the parent accepts from the child: classes of these packages (no functions) ...
 TRUSTED_PACKAGES = ("ffrf_advisor", "meshio", "scipy.sparse", "numpy.dtypes")
 # ... and these names: how numpy arrays, dtypes and scalars, fractions and objects are rebuilt.
-TRUSTED_NAMES = {(m, n) for m in ("numpy._core.multiarray", "numpy.core.multiarray") for n in ("_reconstruct", "scalar")} | \
+TRUSTED_NAMES = {(m, n) for m in ("numpy._core.multiarray", "numpy.core.multiarray")
+                 for n in ("_reconstruct", "scalar")} | \
     {(m, "_frombuffer") for m in ("numpy._core.numeric", "numpy.core.numeric")} | \
     {("numpy", "dtype"), ("numpy", "ndarray"), ("fractions", "Fraction"), ("collections", "OrderedDict"),
      ("copyreg", "_reconstructor"), ("copyreg", "__newobj__")}

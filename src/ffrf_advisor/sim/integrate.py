@@ -182,7 +182,6 @@ def compile_beside(names) -> None:
     compile_ahead(("rhs",))
 
 
-
 def compiled_args(m: Model) -> tuple[int, tuple]:
     """(the right-hand side's address, the packed model): the first and the model argument of every compiled
     loop (kernels.rhs_address, ``_compiled_model``)."""

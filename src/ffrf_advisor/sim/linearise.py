@@ -134,10 +134,8 @@ def _linearised(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[Lin
     """(the linearisation, the q parts of its modes' eigenvectors (nf, n) in ascending frequency, all the
     eigenvectors as columns of (w, q, q')); ``jac``: ``jacobian`` or a ``compiled_jacobian``; ``q``: the static
     deflection at the spin where the caller has it."""
-    a, w = spin_vector(axis, s)
-    q = static_deflection(model, w) if q is None else q
-    x = np.concatenate([w, q, np.zeros(model.nf)])
-    mu, V = np.linalg.eig(jac(model, x))
+    a, q, J = _at_equilibrium(model, axis, s, jac, q)
+    mu, V = np.linalg.eig(J)
     top = np.abs(mu).max() if mu.size else 1.0
     osc = np.flatnonzero(mu.imag > 1e-9 * top)
     modal = _modal_oscillations(_modal_share(model, V[:, osc]), model.nf)
@@ -150,9 +148,15 @@ def _linearised(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[Lin
 def unstable(model: Model, axis, s: float, q=None) -> bool:
     """``linearise(model, axis, s).unstable`` from the eigenvalues alone (no eigenvectors: about a third less
     work at 100 modes); ``q``: the static deflection at the spin where the caller has it."""
-    _, w = spin_vector(axis, s)
+    return _grows(np.linalg.eigvals(_at_equilibrium(model, axis, s, jacobian, q)[2]))
+
+
+def _at_equilibrium(model: Model, axis, s: float, jac, q=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(the unit axis, the static deflection, the Jacobian ``jac`` of the rates of (w, q, q') there) of steady
+    spin s about axis; ``q``: the deflection where the caller has it."""
+    a, w = spin_vector(axis, s)
     q = static_deflection(model, w) if q is None else q
-    return _grows(np.linalg.eigvals(jacobian(model, np.concatenate([w, q, np.zeros(model.nf)]))))
+    return a, q, jac(model, np.concatenate([w, q, np.zeros(model.nf)]))
 
 
 def _grows(mu: np.ndarray) -> bool:

@@ -53,6 +53,16 @@ def test_W_matrices_match_the_printed_block_layout(lshape_body):
         assert np.abs(got - want).max() <= 1e-14 * np.abs(want).max()
 
 
+def test_W_matrices_are_made_once_and_read_only(lshape_body):
+    """Each is computed once per integrals (significance asks for W2 once per mode) and cannot be written
+    through: the one copy every caller shares."""
+    J = lshape_body.integrals
+    for W in (J.W1, J.W2, J.W3):
+        assert W() is W()
+        with pytest.raises(ValueError):
+            W()[0, 0] = 1.0
+
+
 def test_structure_and_cauchy_schwarz_bounds(lshape_body):
     J = lshape_body.integrals
     nf = J.nf

@@ -105,9 +105,9 @@ def build_model(body: FlexibleBody, terms, damping=0.0, G: np.ndarray | None = N
         raise FFRFError(f"--damping: expected one or {nf} ratios between 0 and {MAX_DAMPING:g}, got "
                         f"{np.ravel(damping).tolist()[:6]}")
     Sbar = np.array(ints.Sbar) if _carries(terms, "W2") else np.zeros((3, 3, nf, nf))
-    W3k = ints.W3().reshape(3, nf, nf) if _carries(terms, "W3") else np.zeros((3, nf, nf))
+    W3k = _owned(ints.W3().reshape(3, nf, nf)) if _carries(terms, "W3") else np.zeros((3, nf, nf))
     return Model(terms=terms, I0=_owned(body.I0), Ibar=_owned(ints.Ibar), Sbar=np.ascontiguousarray(Sbar),
-                 W3k=np.ascontiguousarray(W3k), eigenvalues=_owned(body.eigenvalues),
+                 W3k=W3k, eigenvalues=_owned(body.eigenvalues),
                  damping=2 * zeta * np.sqrt(np.abs(body.eigenvalues)),
                  G=np.zeros((6, nf, nf)) if G is None else _owned(G))
 

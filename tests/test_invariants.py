@@ -1,6 +1,8 @@
 """Invariants against nodal sums on real meshes (theory section 3)."""
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -61,6 +63,7 @@ def test_W_matrices_are_made_once_and_read_only(lshape_body):
         assert W() is W()
         with pytest.raises(ValueError):
             W()[0, 0] = 1.0
+    assert not {"_W1", "_W2", "_W3"} & set(vars(pickle.loads(pickle.dumps(J))))  # as a reading child sends it
 
 
 def test_structure_and_cauchy_schwarz_bounds(lshape_body):

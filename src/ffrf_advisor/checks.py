@@ -104,15 +104,21 @@ DENSITY_UNITS = {"kg/m^3": 1.0, "g/cm^3": 1e3, "kg/cm^3": 1e6, "kg/mm^3": 1e9, "
 def apparent_density(body: FlexibleBody) -> float:
     """Mass over the volume of the solid box with the body's mass and second moments [kg/m^3]: the material's
     density for a solid box, less for thin walls (the carbody: 31), rarely above it (mass near the CoM)."""
+    return _density(body, body.equivalent_box())
+
+
+def _density(body: FlexibleBody, box: np.ndarray) -> float:
+    """``apparent_density`` with the body's ``equivalent_box`` given."""
     u = body.units
-    volume = float(np.prod(body.equivalent_box())) * float(LENGTH[u.length]) ** 3
+    volume = float(np.prod(box)) * float(LENGTH[u.length]) ** 3
     return body.mass * float(MASS[u.mass]) / volume if volume > 0 else float("inf")
 
 
 def density_warnings(body: FlexibleBody) -> tuple[str, ...]:
     """A warning when the apparent density is outside PLAUSIBLE_DENSITY, naming the unit mix-up that would
     give it (a density in kg/m^3 read as t/mm^3 is 10^12 too heavy)."""
-    rho = apparent_density(body)
+    box = body.equivalent_box()
+    rho = _density(body, box)
     if PLAUSIBLE_DENSITY[0] <= rho <= PLAUSIBLE_DENSITY[1]:
         return ()
     u = body.units
@@ -121,7 +127,7 @@ def density_warnings(body: FlexibleBody) -> tuple[str, ...]:
     likely = [name for name, size in DENSITY_UNITS.items() if 300 <= rho * size / native <= 3e4 and size != native]
     guess = f"; a density in {likely[0]} read as {read_as}?" if likely else ""
     return (f"implausible density: mass {body.mass:.4g} {u.mass} in its equivalent solid box of "
-            f"{' x '.join(f'{e:.3g}' for e in body.equivalent_box())} {u.length} is {rho:.3g} kg/m^3, outside "
+            f"{' x '.join(f'{e:.3g}' for e in box)} {u.length} is {rho:.3g} kg/m^3, outside "
             f"{PLAUSIBLE_DENSITY[0]:g}-{PLAUSIBLE_DENSITY[1]:g} kg/m^3 (units {u}){guess}",)
 
 

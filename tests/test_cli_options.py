@@ -137,3 +137,28 @@ def test_the_q_max_table_is_stacked_per_mode_where_a_table_does_not_fit():
     assert "┃" not in block and all(f"mode {p + 1}:" in block for p in range(len(amp["q_max"])))
     q_max = re.findall(r"q_max\s+\[sqrt\(t\)\s+mm\]\s+(\S+);", block)
     assert [float(v) for v in q_max] == pytest.approx(amp["q_max"], rel=5e-5)
+
+
+@pytest.mark.parametrize("columns", ["60", "80"])
+def test_each_candidate_set_shows_its_predicted_errors_whole(columns):
+    """The candidates of analyze read back from the text give --json's predicted errors (2 significant digits:
+    rel 5e-2; inf where JSON has null), each under its set: a table at 80 columns, one block per set at 60,
+    where the table's columns no longer fit (no value cut to an ellipsis)."""
+    from .text_tables import read_table
+    analyze = ["analyze", str(SAMPLES / "beam.ffrf.h5"), "--speed", "300rad/s"]
+    sets = {c["label"]: c for c in json.loads(runner.invoke(app, [*analyze, "--json"]).stdout)["candidates"]}
+    text = runner.invoke(app, analyze, env={"COLUMNS": columns}).stdout
+    title = "predicted response errors per term set"
+    if columns == "80":
+        shown = {r["set"]: r for r in read_table(text, title)}
+    else:
+        block = text[text.index(title):text.index("maximum modal coordinates")]
+        assert "┃" not in block and "…" not in block
+        shown = {m[0]: dict(re.findall(r"(\w+) (\S+?)(?:;|$)", " ".join(m[1].split())))
+                 for m in re.findall(r"^set (\S+):\n((?: {4}.*\n)+)", block, re.M)}
+    assert set(shown) == set(sets)
+    for label, c in sets.items():
+        for kind, value in c["errors"].items():
+            assert float(shown[label][kind]) == (pytest.approx(value, rel=5e-2, abs=1e-300) if value is not None
+                                                 else float("inf"))
+        assert shown[label]["ok"].startswith("yes" if c["adequate"] else "no")

@@ -194,15 +194,11 @@ def _candidates(console: Console, a) -> None:
     adv, sit = a.advice, a.options.situation
     if not adv.candidates:
         return
-    t = Table(title=f"predicted response errors per term set (adequate: all <= {sit.tolerance:g} / {MARGIN:g}; "
-                    "docs/advice.md)")
-    for col in ("set", "level", "rhs", *KINDS, "ok"):
-        t.add_column(col, justify="left" if col == "set" else "right")
-    for c in sorted(adv.candidates, key=lambda c: c.cost):
-        mark = "<-" if set(c.terms) == set(adv.terms) else ""
-        t.add_row(c.label, level_of(c.terms), f"{c.cost:.2f}", *(f"{c.errors[k]:.2g}" for k in KINDS),
-                  ("yes" if c.meets(sit.tolerance) else "no") + mark)
-    console.print(t)
+    rows = [[c.label, level_of(c.terms), f"{c.cost:.2f}", *(f"{c.errors[k]:.2g}" for k in KINDS),
+             ("yes" if c.meets(sit.tolerance) else "no") + ("<-" if set(c.terms) == set(adv.terms) else "")]
+            for c in sorted(adv.candidates, key=lambda c: c.cost)]
+    fitted_table(console, f"predicted response errors per term set (adequate: all <= {sit.tolerance:g} / "
+                 f"{MARGIN:g}; docs/advice.md)", ["set", "level", "rhs", *KINDS, "ok"], rows, left=("set",))
 
 
 def _evidence(console: Console, rules) -> None:

@@ -162,3 +162,14 @@ def test_each_candidate_set_shows_its_predicted_errors_whole(columns):
             assert float(shown[label][kind]) == (pytest.approx(value, rel=5e-2, abs=1e-300) if value is not None
                                                  else float("inf"))
         assert shown[label]["ok"].startswith("yes" if c["adequate"] else "no")
+
+
+@pytest.mark.parametrize("command", [["info"], ["analyze", "--speed", "3000rpm"]])
+def test_no_value_is_cut_at_60_columns(command):
+    """Every table of info and analyze (modes, checks, candidates, q_max, significance, magnitudes, basis) is
+    a table where it fits and one block per row where it does not: no line beyond the width, no value cut to an
+    ellipsis (rich cut the carbody's dI_L to '3.277e-…' and a check's name at 60 columns)."""
+    text = runner.invoke(app, [command[0], str(SAMPLES / "carbody.ffrf.h5"), *command[1:]],
+                         env={"COLUMNS": "60"}).stdout
+    assert "…" not in text and max(map(len, text.splitlines())) <= 60
+    assert "free_surface_translation" in text or command[0] != "info"

@@ -59,16 +59,11 @@ def body_summary(console: Console, body: FlexibleBody, checks: list[Check]) -> N
         console.print(f"          at the frame origin to round-off: |CoM| / size = {offset.value:.1e} "
                       f"<= {offset.tolerance:.0e}")
     console.print(f"I0 {_unit(f'{u.mass} {u.length}^2')}\n{_matrix(body.I0)}")
-    modes = Table(title=f"{body.nf} flexible modes")
-    modes.add_column("mode", justify="right")
-    modes.add_column(f"f {_unit(u.frequency)}", justify="right")
-    modes.add_column(f"lambda {_unit(f'1/{u.time}^2')}", justify="right")
-    modes.add_column(f"sigma_vM,max at q=1 {_unit(u.stress)}", justify="right")
-    for p in range(body.nf):
-        sigma = "-" if body.sigma_max is None else f"{body.sigma_max[p]:.4e}"
-        modes.add_row(str(p + 1), f"{body.frequencies_hz[p]:.4f}", f"{body.eigenvalues[p]:.6e}", sigma)
-    console.print(modes)
-    console.print(checks_table(checks))
+    fitted_table(console, f"{body.nf} flexible modes", ["mode", f"f {_unit(u.frequency)}",
+                 f"lambda {_unit(f'1/{u.time}^2')}", f"sigma_vM,max at q=1 {_unit(u.stress)}"],
+                 [[str(p + 1), f"{body.frequencies_hz[p]:.4f}", f"{body.eigenvalues[p]:.6e}",
+                   "-" if body.sigma_max is None else f"{body.sigma_max[p]:.4e}"] for p in range(body.nf)])
+    checks_table(console, checks)
     for w in density_warnings(body):
         console.print(f"[yellow]warning[/yellow]: {escape(w)}", highlight=False)
     failed = [c for c in checks if not c.passed]
@@ -83,17 +78,11 @@ def body_summary(console: Console, body: FlexibleBody, checks: list[Check]) -> N
                       + "; ".join(c.assumption for c in failed) + f" — {fix}")
 
 
-def checks_table(checks: list[Check]) -> Table:
-    table = Table(title="checks (theory section 4)")
-    table.add_column("check")
-    table.add_column("value", justify="right")
-    table.add_column("tolerance", justify="right")
-    table.add_column("result")
-    for c in checks:
-        op = ">" if c.name == "mass" else "<="
-        table.add_row(c.name, f"{c.value:.3e}", f"{op} {c.tolerance:.1e}",
-                      "[green]pass[/green]" if c.passed else "[red]FAIL[/red]")
-    return table
+def checks_table(console: Console, checks: list[Check]) -> None:
+    """Each check's value against its tolerance, pass (green) or FAIL (red)."""
+    fitted_table(console, "checks (theory section 4)", ["check", "value", "tolerance", "result"],
+                 [[c.name, f"{c.value:.3e}", f"{'>' if c.name == 'mass' else '<='} {c.tolerance:.1e}",
+                   "[green]pass[/green]" if c.passed else "[red]FAIL[/red]"] for c in checks], left=("check", "result"))
 
 
 def _lagrangian(adv, nf: int) -> str:
@@ -128,14 +117,11 @@ def analysis_summary(console: Console, a, warnings: Console | None = None, modes
              "-" if amp.deflection_ratio is None else f"{amp.deflection_ratio[p]:.3g}") for p in range(b.nf)]
     fitted_table(console, f"maximum modal coordinates (theory 6; q_cap {amp.q_cap:.4g}, "
                           f"sigma_allow {amp.sigma_allow:.4g} {u.stress})", headers, rows, left=("governs",))
-    m = Table(title=f"significance per axis (max over the first {sig.n_ratio} modes; theory 7)")
-    for col in ("axis", "dI_L", "dI_Q", "dI_fT", f"s_crit {_unit(f'rad/{u.time}')}", "with G"):
-        m.add_column(col, justify="right")
-    for k in range(3):
-        m.add_row(str(k + 1), *(_max(sig.max_first(name), k) for name in ("dI_L", "dI_Q", "dI_fT")),
-                  "n/a" if sig.s_crit is None else f"{sig.s_crit[k]:.4g}",
-                  "n/a" if sig.s_crit_stiffened is None else f"{sig.s_crit_stiffened[k]:.4g}")
-    console.print(m)
+    rows = [[str(k + 1), *(_max(sig.max_first(name), k) for name in ("dI_L", "dI_Q", "dI_fT")),
+             "n/a" if sig.s_crit is None else f"{sig.s_crit[k]:.4g}",
+             "n/a" if sig.s_crit_stiffened is None else f"{sig.s_crit_stiffened[k]:.4g}"] for k in range(3)]
+    fitted_table(console, f"significance per axis (max over the first {sig.n_ratio} modes; theory 7)",
+                 ["axis", "dI_L", "dI_Q", "dI_fT", f"s_crit {_unit(f'rad/{u.time}')}", "with G"], rows)
     console.print(f"dI_Tf max {_max(sig.max_first('dI_Tf'))};  "
                   f"Coriolis ratio {_ratio(sig.coriolis)} (as in the paper {_ratio(sig.coriolis_paper)});  "
                   f"centrifugal ratio {_ratio(sig.centrifugal)} (as in the paper {_ratio(sig.centrifugal_paper)}); "
@@ -144,33 +130,31 @@ def analysis_summary(console: Console, a, warnings: Console | None = None, modes
         console.print(f"softening about axis {k + 1}: {text}", highlight=False)
     if sig.not_evaluable:
         console.print(f"not evaluable (n/a): {', '.join(sig.not_evaluable)}")
-    g = Table(title="magnitudes (G Tables 2, 3)")
-    for col in ("matrix", "max |entry|", "mean |nonzero|", "Frobenius"):
-        g.add_column(col, justify="right")
-    for name, mag in sig.magnitudes.items():
-        g.add_row(name, f"{mag.max_abs:.3e}", f"{mag.mean_nonzero:.3e}", f"{mag.frobenius:.3e}")
-    console.print(g)
+    fitted_table(console, "magnitudes (G Tables 2, 3)", ["matrix", "max |entry|", "mean |nonzero|", "Frobenius"],
+                 [[name, f"{m.max_abs:.3e}", f"{m.mean_nonzero:.3e}", f"{m.frobenius:.3e}"]
+                  for name, m in sig.magnitudes.items()])
     _basis_table(console, a)
     _evidence(console, adv.rules)
 
 
 def fitted_table(console: Console, title: str, headers, rows, left=(), prose: str | None = None) -> None:
-    """A table whose columns are as wide as their longest value or header word (headers break at blanks,
-    values never; the ``prose`` column, a left-justified text, wraps at blanks into the width the others
-    leave, at least its longest word); where that is wider than the console, one stacked block per row
-    instead (right at any width). Where no value wraps, each column goes in as one cell of all its values, one
-    a line: the same lines as a row per value (the box draws no line between rows), rendered in a third of the
-    time (rich lays out each cell on its own: 0.5 ms a row)."""
-    plain = [Text.from_markup(h, emoji=False).plain for h in headers]
-    words = lambda k: [len(w) for r in rows for w in r[k].split()] + [len(w) for w in plain[k].split()]  # noqa
-    widths = [max(words(k)) if h == prose else max([len(r[k]) for r in rows] + [len(w) for w in plain[k].split()])
-              for k, h in enumerate(headers)]
-    frame = 3 * len(widths) + 1
+    """A table whose columns are as wide as their longest value or header (where that is wider than the
+    console, header word: headers break at blanks, values never; the ``prose`` column, a left-justified text,
+    wraps at blanks into the width the others leave, at least its longest word); where that is still wider than
+    the console, one stacked block per row instead (right at any width). Where no value wraps, each column goes
+    in as one cell of all its values, one a line: the same lines as a row per value (the box draws no line
+    between rows), rendered in a third of the time (rich lays out each cell on its own: 0.5 ms a row)."""
+    plain = [_plain(h) for h in headers]
+    text = [[_plain(v) for v in r] for r in rows]  # what a value shows: its markup (a colour) takes no width
+    frame = 3 * len(headers) + 1
+    k = headers.index(prose) if prose in headers else None
+    widths = _widths(text, plain, k, whole=True)
+    if sum(widths) + frame > console.width:
+        widths = _widths(text, plain, k, whole=False)
     wraps = False  # a prose value wraps in its cell
-    if prose in headers:
-        k = headers.index(prose)
-        widths[k] = max(widths[k], min(max(len(r[k]) for r in rows), console.width - frame - sum(widths) + widths[k]))
-        wraps = any(len(r[k]) > widths[k] for r in rows)
+    if k is not None:
+        widths[k] = max(widths[k], min(max(len(r[k]) for r in text), console.width - frame - sum(widths) + widths[k]))
+        wraps = any(len(r[k]) > widths[k] for r in text)
     if sum(widths) + frame <= console.width:
         t = Table(title=title)
         for h, w in zip(headers, widths):
@@ -183,10 +167,23 @@ def fitted_table(console: Console, title: str, headers, rows, left=(), prose: st
         console.print(t)
         return
     console.print(title, highlight=False)
-    for row in rows:
+    for row in text:
         console.print(f"{plain[0]} {row[0]}:", highlight=False)
         console.print(Padding(escape("; ".join(f"{h} {v}" for h, v in zip(plain[1:], row[1:]))), (0, 0, 0, 4)),
                       highlight=False)
+
+
+def _plain(value: str) -> str:
+    """The text ``value`` shows, its rich markup (``[green]``) taken out."""
+    return Text.from_markup(value, emoji=False).plain if "[" in value else value
+
+
+def _widths(rows, headers: list[str], prose: int | None, whole: bool) -> list[int]:
+    """``fitted_table``'s column widths: the longest value (word, in the ``prose`` column) or header (``whole``)
+    or header word."""
+    head = (lambda h: [len(h)]) if whole else (lambda h: [len(w) for w in h.split()])  # noqa: E731
+    return [max([len(w) for r in rows for w in r[k].split()] + head(h)) if k == prose
+            else max([len(r[k]) for r in rows] + head(h)) for k, h in enumerate(headers)]
 
 
 def _candidates(console: Console, a) -> None:
@@ -223,13 +220,10 @@ def _basis_table(console: Console, a) -> None:
         console.print("basis adequacy (theory 11): not available (needs the body's FE data and material)")
         return
     at = f"at {w_op:.4g} rad/s" if w_op is not None else "per (rad/s)^2"
-    t = Table(title=f"can the kept modes carry the centrifugal load? (theory 11, {at})")
-    for col in ("axis", "energy error", f"exact stress {_unit(u.stress)}", f"modal stress {_unit(u.stress)}"):
-        t.add_column(col, justify="right")
-    for r in rows:
-        t.add_row(str(r["axis"]), f"{r['energy_error']:.3g}", f"{r['sigma_exact']:.3g}",
-                  "n/a" if r["sigma_modal"] is None else f"{r['sigma_modal']:.3g}")
-    console.print(t)
+    fitted_table(console, f"can the kept modes carry the centrifugal load? (theory 11, {at})",
+                 ["axis", "energy error", f"exact stress {_unit(u.stress)}", f"modal stress {_unit(u.stress)}"],
+                 [[str(r["axis"]), f"{r['energy_error']:.3g}", f"{r['sigma_exact']:.3g}",
+                   "n/a" if r["sigma_modal"] is None else f"{r['sigma_modal']:.3g}"] for r in rows])
 
 
 def _max(values, k=None) -> str:

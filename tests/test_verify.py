@@ -290,8 +290,9 @@ def test_quick_verify_gives_the_scenes_and_the_verdict_without_the_studies(tmp_p
     assert [r["errors"] for r in quick["results"]] == [r["errors"] for r in whole["results"]]
     parallel = json.loads(CliRunner().invoke(app, [*args, "--quick", "--jobs", "2", "--json"]).output)
     assert [r["errors"] for r in parallel["results"]] == [r["errors"] for r in quick["results"]]
-    text = CliRunner().invoke(app, [*args, "--quick"]).output
-    assert "quick: no work-precision, stability or Campbell studies" in text
+    text = CliRunner().invoke(app, [*args, "--quick"], env={"COLUMNS": "60"}).output
+    assert "quick: no work-precision, stability or Campbell studies" in " ".join(text.split())
+    assert "…" not in text and max(map(len, text.splitlines())) <= 60  # per set one block: every error whole
     full = next(r["terms"] for r in quick["results"] if r["set"] == "IV (full)")
     same = [r["speedup"] for r in quick["results"] if sorted(r["terms"]) == sorted(full)]
     assert len(same) >= 2 and set(same) == {1.0}  # the advised set is the full one here: no timer noise

@@ -410,15 +410,12 @@ def verification_report(console: Console, d: dict) -> None:
                   f"({CRITERION_TEXT[d['criterion']]})", highlight=False)
     columns = VERIFY_COLUMNS[d["criterion"]]
     for scene in d["scenes"]:
-        t = Table(title=f"{scene['label']}: {scene['text']}; reference self-convergence "
-                        f"{_err(scene['reference']['self_check']['error'])}; {_scene_verdict(scene['verdict'])}")
-        for col in ("set", *columns.values(), "ok", "speed-up"):
-            t.add_column(col, justify="left" if col == "set" else "right")
-        for r in (r for r in d["results"] if r["scene"] == scene["label"]):
-            t.add_row(r["set"], *(_err(r["errors"][k]) for k in columns),
-                      "yes" if r["meets"] else "[red]no[/red]",
-                      "-" if r["speedup"] is None else f"{r['speedup']:.2f}")
-        console.print(t)
+        fitted_table(console, f"{scene['label']}: {scene['text']}; reference self-convergence "
+                              f"{_err(scene['reference']['self_check']['error'])}; {_scene_verdict(scene['verdict'])}",
+                     ["set", *columns.values(), "ok", "speed-up"],
+                     [[r["set"], *(_err(r["errors"][k]) for k in columns), "yes" if r["meets"] else "[red]no[/red]",
+                       "-" if r["speedup"] is None else f"{r['speedup']:.2f}"]
+                      for r in d["results"] if r["scene"] == scene["label"]], left=("set",))
     if d["stability"] is None:
         console.print("quick: no work-precision, stability or Campbell studies (run without --quick for them)",
                       highlight=False)

@@ -173,3 +173,11 @@ def test_no_value_is_cut_at_60_columns(command):
                          env={"COLUMNS": "60"}).stdout
     assert "…" not in text and max(map(len, text.splitlines())) <= 60
     assert "free_surface_translation" in text or command[0] != "info"
+
+
+def test_compare_folds_a_long_quantity_label_at_60_columns():
+    """Four bodies at 60 columns: the quantity labels fold inside their cell (rich cut 'centrifugal ratio' to
+    'centrifu…'), no line beyond the width."""
+    bodies = [str(SAMPLES / f"{n}.ffrf.h5") for n in ("beam", "plate", "conrod", "carbody")]
+    text = runner.invoke(app, ["compare", *bodies, "--speed", "1rad/s"], env={"COLUMNS": "60"}).stdout
+    assert "…" not in text and max(map(len, text.splitlines())) <= 60

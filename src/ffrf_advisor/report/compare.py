@@ -47,7 +47,7 @@ def comparison_table(data: dict) -> Table:
     bodies = data["bodies"]
     table = Table(title=f"comparison (first {data['shown_modes']} modes; measures at q_max, max over modes)",
                   show_lines=True)
-    table.add_column("quantity")
+    table.add_column("quantity", overflow="fold")
     for b in bodies:
         table.add_column(shown(b["name"], 40), overflow="fold")
     u = _shared_units(bodies)

@@ -16,7 +16,8 @@ import typer
 from ffrf_advisor.cli import app
 
 ROOT = Path(__file__).resolve().parent.parent
-HEAVY = ("numpy", "scipy", "h5py", "numba", "matplotlib", "weasyprint", "pydantic", "multiprocessing")
+HEAVY = ("numpy", "scipy", "h5py", "numba", "matplotlib", "weasyprint", "pydantic", "multiprocessing",
+         "ffrf_advisor.fe")
 PROBE = f"""
 import sys
 from ffrf_advisor.cli import app
@@ -25,6 +26,7 @@ try:
 except SystemExit as e:
     print("exit", e.code)
 loaded = {{m.split(".")[0] for m, mod in list(sys.modules.items()) if type(mod).__name__ != "_LazyModule"}}
+loaded |= {{"ffrf_advisor.fe"}} & {{m.rpartition(".")[0] for m in sys.modules}}  # the FE modules: mesh, elements
 print("imported", *sorted(loaded & set({HEAVY!r})))  # a lazy module (io.guard.lazy_module) counts once loaded
 """
 COMMANDS = sorted(typer.main.get_command(app).commands)
@@ -77,13 +79,14 @@ def cached_beam(tmp_path_factory):
 @pytest.mark.parametrize("args", [["info"], ["analyze", "--speed", "300rad/s"], ["settings", "--solver", "adams"],
                                   ["gate", "--speed", "300rad/s", "--max-level", "IV"]], ids=lambda a: a[0])
 def test_a_cached_body_is_analysed_without_scipy_or_pydantic(cached_beam, args):
-    """scipy.sparse is for FE data, pydantic was typer's coercion (cli_params): together 0.15 s per command;
+    """scipy.sparse and the FE modules are for FE data, pydantic was typer's coercion (cli_params): together
+    0.15 s per command;
     multiprocessing is for more than one job (pool.local_pool: gate --jobs 1 ran without it). h5py and the
     HDF5 library (io.guard.lazy_module): analyze and info leave them to the reading child and import their own
     modules while it parses; the others load them meanwhile, for the reads and writes that may follow."""
     code, heavy = heavy_imports(args[0], str(cached_beam), *args[1:])
     assert code == 0 and "numpy" in heavy
-    assert not heavy & {"scipy", "pydantic", "numba", "multiprocessing"}, heavy
+    assert not heavy & {"scipy", "pydantic", "numba", "multiprocessing", "ffrf_advisor.fe"}, heavy
     assert ("h5py" in heavy) == (args[0] not in ("analyze", "info")), heavy
 
 

@@ -6,14 +6,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .fe.material import Material
-from .fe.mesh import Mesh
 from .invariants import (RotaryIntegrals, ShapeIntegrals, block_rows, frozen_array, largest_squares, principal_axes,
                          rotary_integrals, shape_integrals)
 from .units import TMM, Units, factor
 
-if TYPE_CHECKING:  # scipy.sparse is imported where FE data is used: analysing a cached body needs none
+if TYPE_CHECKING:  # scipy.sparse and the FE modules where FE data is used: analysing a cached body needs none
     import scipy.sparse as sp
+
+    from .fe.material import Material
+    from .fe.mesh import Mesh
 
 MASS_KINDS = ("consistent", "lumped", "unknown")
 SYM_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))  # the six centrifugal load cases kl (theory 9)
@@ -146,7 +147,7 @@ class ModalFE:
 
     def transformed(self, c: np.ndarray, R: np.ndarray) -> "ModalFE":
         """Points x' = R^T (x - c), mode components S' = R^T S, K' = T^T K T with T = kron(1, R)."""
-        mesh = Mesh((self.mesh.points - c) @ R, dict(self.mesh.cells))
+        mesh = replace(self.mesh, points=(self.mesh.points - c) @ R, cells=dict(self.mesh.cells))
         Phi = np.einsum("ak,iap->ikp", R, self.Phi)
         K = self.K
         if K is not None:
@@ -157,7 +158,7 @@ class ModalFE:
         return replace(self, mesh=mesh, Phi=Phi, K=K, rotary=rotary)
 
     def converted(self, src: Units, dst: Units) -> "ModalFE":
-        mesh = Mesh(self.mesh.points * factor(src, dst, "length"), dict(self.mesh.cells))
+        mesh = replace(self.mesh, points=self.mesh.points * factor(src, dst, "length"), cells=dict(self.mesh.cells))
         return ModalFE(
             mesh=mesh,
             Ms=self.Ms * factor(src, dst, "mass"),

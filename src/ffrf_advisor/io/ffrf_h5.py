@@ -15,9 +15,6 @@ import numpy as np
 from .. import __version__
 from ..body import MASS_KINDS, FlexibleBody, ModalFE, NodalRotary, NodalSummary, Provenance, StaticCentrifugal
 from ..errors import BodyFileError
-from ..fe.elements import ELEMENT_TYPES
-from ..fe.material import Material
-from ..fe.mesh import Mesh
 from ..invariants import SPAN, NodalPass, RotaryIntegrals, ShapeIntegrals, block_rows, nodal_pass
 from ..units import Units, UnitsError
 from .atomic import atomic_path
@@ -26,8 +23,11 @@ from .limits import TREE_BYTES_PER_BYTE, Budget, check_hdf5_references
 
 h5py = guard.lazy_module("h5py")  # loaded at first use: in the children, in the tool only meanwhile (guard)
 
-if TYPE_CHECKING:  # imported where the FE data is read or written: a cached body's analysis needs no scipy
-    import scipy.sparse as sp
+if TYPE_CHECKING:  # imported where the FE data is read or written: a cached body's analysis needs neither scipy
+    import scipy.sparse as sp  # nor the FE modules
+
+    from ..fe.material import Material
+    from ..fe.mesh import Mesh
 
 FORMAT_NAME = "ffrf-body"
 VERSION = 3  # 2: optional /material, /static_centrifugal, /geometric_stiffness; 3: optional /rotary (docs/format.md)
@@ -242,6 +242,8 @@ def _provenance(r: _Reader, path) -> Provenance:
 
 
 def _mesh(r: _Reader) -> Mesh:
+    from ..fe.elements import ELEMENT_TYPES
+    from ..fe.mesh import Mesh
     points = r.array("mesh/points", (None, 3))
     n = len(points)
     cells = {}
@@ -439,6 +441,7 @@ def _material(r: _Reader) -> Material | None:
         if v is None or np.ndim(v) or isinstance(v, (bytes, str)) or not np.isfinite(v) or not ok(float(v)):
             r.fail(f"material@{key}", want, repr(v))
         values[key] = float(v)
+    from ..fe.material import Material
     return Material(str(r.attr("name", g)), values["E"], values["nu"], values["rho"])
 
 

@@ -145,10 +145,6 @@ class ShapeIntegrals:
 
     # W1, W2, W3 are made once per integrals (their data is immutable) and read-only: significance asks for the
     # 3nf x 3nf W2 once per mode (analyze of a freshly read 100-mode body 19 -> 13 ms)
-    def __getstate__(self) -> dict:
-        """The fields only: a body sent from its reading child carries no made invariants."""
-        return {k: v for k, v in vars(self).items() if k not in ("_W1", "_W2", "_W3")}
-
     @cached_property
     def _W1(self) -> np.ndarray:
         return _read_only(W1(self.Ibar))
@@ -162,6 +158,10 @@ class ShapeIntegrals:
         if self.Sbar is not None:
             return _read_only(W3(self.Sbar))
         return None if self.spin is None else self.spin.reshape(3 * self.nf, self.nf)
+
+    def __getstate__(self) -> dict:
+        """The fields only: a body sent from its reading child carries no made invariants."""
+        return {k: v for k, v in vars(self).items() if k not in ("_W1", "_W2", "_W3")}
 
     def mean_axis_residual(self) -> np.ndarray:
         """sum m u0~ S (+ sum J Phi*, theory 3b) (3, nf): zero for modes satisfying the mean-axis conditions."""

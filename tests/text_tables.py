@@ -29,3 +29,8 @@ def _cells(block: list[str], bar: str) -> list[str]:
     """Cells of a multi-line row: the text between the bars, line by line, joined."""
     split = [line.strip().strip(bar).split(bar) for line in block]
     return [" ".join(part[k].strip() for part in split if part[k].strip()) for k in range(len(split[0]))]
+
+
+def fits(text: str, width: int) -> bool:
+    """Whether every line of ``text`` stays within ``width`` characters and no value is cut to an ellipsis."""
+    return "…" not in text and max(map(len, text.splitlines()), default=0) <= width

@@ -6,6 +6,7 @@ benchmarks/bench_startup.py times the same runs.
 """
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -101,3 +102,17 @@ def test_help_builds_no_command_and_lists_what_the_built_commands_say():
     lines = {name: group.commands.short_help(name, 60) for name in COMMANDS}
     assert group.get_command(ctx, "info").name == "info" and set(group.commands._built) == {"info"}
     assert {name: group.get_command(ctx, name).get_short_help_str(60) for name in COMMANDS} == lines
+
+
+@pytest.mark.parametrize("given", [None, "20"])
+def test_the_command_line_shortens_openblas_spin_unless_the_user_set_it(given):
+    """__main__.BLAS_SPIN: set in the environment before the command loads numpy (and OpenBLAS reads it), a
+    value the user gave kept."""
+    from ffrf_advisor.__main__ import BLAS_SPIN
+    name, value = BLAS_SPIN
+    probe = ("import os, runpy, sys; sys.argv = ['ffrf-advisor', 'formats']\n"
+             "try:\n    runpy.run_module('ffrf_advisor', run_name='__main__')\nexcept SystemExit:\n    pass\n"
+             f"print(os.environ.get({name!r}))")
+    env = {k: v for k, v in os.environ.items() if k != name} | ({} if given is None else {name: given})
+    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True, env=env)
+    assert run.stdout.splitlines()[-1] == (value if given is None else given)

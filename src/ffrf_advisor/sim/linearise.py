@@ -12,6 +12,22 @@ steps ``1e-6`` of each coordinate's scale (truncation error ``h^2``, far
 below the frequency differences reported); ``compiled_jacobian`` takes the
 same differences of the compiled right-hand side, for callers that load
 numba anyway.
+
+Where the Jacobian decouples, its eigenproblem is solved block by block
+(``eigen``): a symmetric body's bending in two planes, its torsion and its
+axial modes are independent at some spins, and the dense eigensolver's work
+grows with the cube of the size (the 100-mode bar's reference at 300 rad/s,
+blocks of 102, 100 and 1 instead of 203: 11 ms instead of 17; its 2 x 2
+blocks about another axis: 7 ms instead of 28). Where a coupling is exactly
+zero the differences leave round-off (1e-13 of the largest entry and less
+on the zoo's bodies), so blocks are found in the balanced Jacobian
+``D^-1 J D`` (D: the difference steps, a similarity) among the entries
+above SPLIT of its largest. What lies between blocks is dropped only while
+its norm stays below DROPPED of that entry: the eigenvalues are then exact
+for a Jacobian that close to the differences' (they move by at most that
+times their condition, Bauer-Fike), which is within the differences' own
+round-off (eps over the 1e-6 steps, about 2e-10); else the whole matrix is
+solved, as where nothing decouples.
 """
 from __future__ import annotations
 
@@ -36,6 +52,8 @@ UNSTABLE = 1e-6  # growth rate Re(mu) / |mu|_max above which the equilibrium cou
 SINGULAR = 1e-3
 GROWTH = 1e-3
 TIE = 1e-3
+SPLIT = 1e-12    # balanced entries below this fraction of the largest may lie between blocks (module docstring)
+DROPPED = 1e-10  # at most this Frobenius norm, over the largest balanced entry, is dropped between blocks
 
 
 @dataclass(frozen=True)
@@ -134,8 +152,8 @@ def _linearised(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[Lin
     """(the linearisation, the q parts of its modes' eigenvectors (nf, n) in ascending frequency, all the
     eigenvectors as columns of (w, q, q')); ``jac``: ``jacobian`` or a ``compiled_jacobian``; ``q``: the static
     deflection at the spin where the caller has it."""
-    a, q, J = _at_equilibrium(model, axis, s, jac, q)
-    mu, V = np.linalg.eig(J)
+    a, q, J, steps = _at_equilibrium(model, axis, s, jac, q)
+    mu, V = eigen(J, steps)
     top = np.abs(mu).max() if mu.size else 1.0
     osc = np.flatnonzero(mu.imag > 1e-9 * top)
     modal = _modal_oscillations(_modal_share(model, V[:, osc]), model.nf)
@@ -148,15 +166,66 @@ def _linearised(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[Lin
 def unstable(model: Model, axis, s: float, q=None) -> bool:
     """``linearise(model, axis, s).unstable`` from the eigenvalues alone (no eigenvectors: about a third less
     work at 100 modes); ``q``: the static deflection at the spin where the caller has it."""
-    return _grows(np.linalg.eigvals(_at_equilibrium(model, axis, s, jacobian, q)[2]))
+    return _grows(eigen(*_at_equilibrium(model, axis, s, jacobian, q)[2:], vectors=False))
 
 
-def _at_equilibrium(model: Model, axis, s: float, jac, q=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(the unit axis, the static deflection, the Jacobian ``jac`` of the rates of (w, q, q') there) of steady
-    spin s about axis; ``q``: the deflection where the caller has it."""
+def _at_equilibrium(model: Model, axis, s: float, jac, q=None) -> tuple[np.ndarray, ...]:
+    """(the unit axis, the static deflection, the Jacobian ``jac`` of the rates of (w, q, q') there, its
+    difference steps) of steady spin s about axis; ``q``: the deflection where the caller has it."""
     a, w = spin_vector(axis, s)
     q = static_deflection(model, w) if q is None else q
-    return a, q, jac(model, np.concatenate([w, q, np.zeros(model.nf)]))
+    x = np.concatenate([w, q, np.zeros(model.nf)])
+    return a, q, jac(model, x), _difference_steps(model, x)
+
+
+def eigen(J: np.ndarray, steps: np.ndarray, vectors: bool = True):
+    """``np.linalg.eig(J)`` (or its eigenvalues alone), block by block where J decouples (module docstring:
+    SPLIT, DROPPED; ``steps``: the difference steps, the balancing D): eigenvectors zero outside their block,
+    unit length like eig's; the eigenvalues block after block. The blocks of one size go to one stacked call."""
+    solve = np.linalg.eig if vectors else np.linalg.eigvals
+    blocks = _blocks(J, steps)
+    if blocks is None:
+        return solve(J)
+    n = len(J)
+    mu, V = np.empty(n, complex), np.zeros((n, n), complex)
+    start = 0
+    for size in sorted({len(b) for b in blocks}):
+        idx = np.array([b for b in blocks if len(b) == size])  # (blocks of this size, size)
+        found = solve(J[idx[:, :, None], idx[:, None, :]])
+        cols = start + np.arange(idx.size).reshape(idx.shape)
+        mu[cols] = found[0] if vectors else found
+        if vectors:
+            V[idx[:, :, None], cols[:, None, :]] = found[1]
+        start += idx.size
+    return (mu, V) if vectors else mu
+
+
+def _blocks(J: np.ndarray, steps: np.ndarray) -> list[np.ndarray] | None:
+    """The index sets of the independent blocks of J (module docstring), or None: one block, more dropped
+    between them than DROPPED allows, or entries not finite (the dense solve reports them)."""
+    B = np.abs(J) * steps[None, :] / steps[:, None]  # the balanced D^-1 J D, D = diag(steps)
+    top = B.max(initial=0.0)
+    if not np.isfinite(top):
+        return None
+    label = _components(B > SPLIT * top)
+    if label.max(initial=0) == 0 or np.linalg.norm(B[label[:, None] != label[None, :]]) > DROPPED * top:
+        return None
+    return [np.flatnonzero(label == k) for k in range(label.max() + 1)]
+
+
+def _components(linked: np.ndarray) -> np.ndarray:
+    """Per index its connected component (0, 1, ... in order of first index) of the undirected graph with an
+    edge where ``linked[i, j]`` or ``linked[j, i]``: every index takes the least label among its neighbours
+    and then its label's label, until nothing changes."""
+    n = len(linked)
+    near = linked | linked.T | np.eye(n, dtype=bool)
+    label = np.arange(n)
+    while True:
+        least = np.where(near, label[None, :], n).min(axis=1)
+        least = least[least]
+        if np.array_equal(least, label):  # each label is its component's first index: number them in order
+            return (np.cumsum(label == np.arange(n)) - 1)[label]
+        label = least
 
 
 def _grows(mu: np.ndarray) -> bool:

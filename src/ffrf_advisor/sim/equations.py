@@ -150,10 +150,11 @@ def flexible_force(m: Model, q, qd, w, fext, d: Deformed | None = None) -> np.nd
     return f
 
 
-def accelerations(m: Model, q, qd, w, tau, fext):
+def accelerations(m: Model, q, qd, w, tau, fext, d: Deformed | None = None):
     """(w', q'') of the free body: block solve, Schur complement on the 3 x 3 block with coupling. Every
-    argument may carry leading batch axes (states side by side)."""
-    d = Deformed(m, q)
+    argument may carry leading batch axes (states side by side); ``d``: the Deformed pieces at q where the
+    caller has them."""
+    d = Deformed(m, q) if d is None else d
     fr, ff = rotational_force(m, q, qd, w, tau, d), flexible_force(m, q, qd, w, fext, d)
     if not m.on("coupling"):
         return _solve(d.J, fr), ff

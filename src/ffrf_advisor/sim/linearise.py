@@ -32,6 +32,7 @@ solved, as where nothing decouples.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -90,11 +91,12 @@ def _static_stiffness(model: Model, w: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return -(f[1:] - f[0]).T, f[0]  # a column of K per q = e_j
 
 
-def _rates(model: Model, x: np.ndarray) -> np.ndarray:
-    """d(w, q, q')/dt at the states x (..., 3 + 2 nf) of a free body without loads."""
+def _rates(model: Model, x: np.ndarray, d: eq.Deformed | None = None) -> np.ndarray:
+    """d(w, q, q')/dt at the states x (..., 3 + 2 nf) of a free body without loads (``d``: their Deformed
+    pieces where the caller has them)."""
     nf = model.nf
     w, q, qd = x[..., :3], x[..., 3:3 + nf], x[..., 3 + nf:]
-    wd, qdd = eq.accelerations(model, q, qd, w, np.zeros(3), np.zeros(nf))
+    wd, qdd = eq.accelerations(model, q, qd, w, np.zeros(3), np.zeros(nf), d)
     return np.concatenate([wd, qd, qdd], axis=-1)
 
 
@@ -102,8 +104,39 @@ def jacobian(model: Model, x: np.ndarray) -> np.ndarray:
     """Central-difference Jacobian of the rates of (w, q, q') at x, all columns in one batched evaluation."""
     h = _difference_steps(model, x)
     step = np.diag(h)
-    plus, minus = np.split(_rates(model, np.vstack([x + step, x - step])), 2)  # one batch: half the numpy calls
+    states = np.vstack([x + step, x - step])  # one batch: half the numpy calls
+    q = slice(3, 3 + model.nf)
+    plus, minus = np.split(_rates(model, states, _Stepped(model, states[:, q], x[q], h[q])), 2)
     return ((plus - minus) / (2 * h)[:, None]).T
+
+
+class _Stepped(eq.Deformed):
+    """The Deformed pieces of ``jacobian``'s states (x + h_j e_j, then x - h_j e_j; ``q``: their q, ``q0``:
+    x's, ``hq``: the steps of q). ``Sq = Sbar q`` and ``C = Qf^T W3`` are linear in q: a state's is the one at
+    x plus or minus h_j times the invariant's column j where it steps q_j, else the one at x, made from the
+    columns instead of a product per state (the 100-mode bar's reference: 8 ms -> 4 ms a Jacobian). They
+    differ from the products by rounding (eps of the piece at x), as two orders of the products would."""
+
+    def __init__(self, m: Model, q: np.ndarray, q0: np.ndarray, hq: np.ndarray):
+        super().__init__(m, q)
+        self.q0, self.hq = q0, hq
+
+    def _stepped(self, at_x: np.ndarray, columns: np.ndarray) -> np.ndarray:
+        """``at_x`` for every state, ``+- hq_j columns[j]`` added where the state steps q_j."""
+        n, nf = len(self.q) // 2, len(self.hq)
+        out = np.broadcast_to(at_x, (2 * n, *at_x.shape)).copy()
+        step = columns * self.hq.reshape(-1, *[1] * (columns.ndim - 1))
+        out[3:3 + nf] += step
+        out[n + 3:n + 3 + nf] -= step
+        return out
+
+    @cached_property
+    def Sq(self) -> np.ndarray:
+        return self._stepped(eq.sbar_times(self.m, self.q0), np.moveaxis(self.m.Sbar, 3, 0))
+
+    @cached_property
+    def C(self) -> np.ndarray:
+        return self._stepped(eq.coupling_matrix(self.m, self.q0), np.moveaxis(self.m.W3k, 1, 0))
 
 
 def compiled_jacobian(model: Model):
@@ -152,7 +185,7 @@ def _linearised(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[Lin
     """(the linearisation, the q parts of its modes' eigenvectors (nf, n) in ascending frequency, all the
     eigenvectors as columns of (w, q, q')); ``jac``: ``jacobian`` or a ``compiled_jacobian``; ``q``: the static
     deflection at the spin where the caller has it."""
-    a, q, J, steps = _at_equilibrium(model, axis, s, jac, q)
+    a, q, J, steps = equilibrium(model, axis, s, jac, q)
     mu, V = eigen(J, steps)
     top = np.abs(mu).max() if mu.size else 1.0
     osc = np.flatnonzero(mu.imag > 1e-9 * top)
@@ -166,10 +199,10 @@ def _linearised(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[Lin
 def unstable(model: Model, axis, s: float, q=None) -> bool:
     """``linearise(model, axis, s).unstable`` from the eigenvalues alone (no eigenvectors: about a third less
     work at 100 modes); ``q``: the static deflection at the spin where the caller has it."""
-    return _grows(eigen(*_at_equilibrium(model, axis, s, jacobian, q)[2:], vectors=False))
+    return _grows(eigen(*equilibrium(model, axis, s, jacobian, q)[2:], vectors=False))
 
 
-def _at_equilibrium(model: Model, axis, s: float, jac, q=None) -> tuple[np.ndarray, ...]:
+def equilibrium(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[np.ndarray, ...]:
     """(the unit axis, the static deflection, the Jacobian ``jac`` of the rates of (w, q, q') there, its
     difference steps) of steady spin s about axis; ``q``: the deflection where the caller has it."""
     a, w = spin_vector(axis, s)

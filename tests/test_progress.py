@@ -8,7 +8,7 @@ from rich.console import Console
 
 from ffrf_advisor.analysis import Options
 from ffrf_advisor.gate import run_gate
-from ffrf_advisor.report.console import busy, step_bar
+from ffrf_advisor.report.progress import busy, step_bar
 
 SAMPLES = Path(__file__).resolve().parents[1] / "sample_bodies"
 

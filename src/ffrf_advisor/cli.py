@@ -324,10 +324,9 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
          as_json: GateJson = False, *, args: AnalysisArgs):
     """CI gate: exit 0 when every body's level is within --max-level, 1 when one is not, 2 on bad input."""
     from .gate import check_junit_target, run_gate, write_junit
-    from .guidelines import LEVELS, operating_point
     from .io.atomic import atomic_path
-    from .report.console import gate_report, step_bar
-    from .report.json_out import SCHEMA_VERSION
+    from .names import LEVELS
+    from .report.progress import step_bar
     max_level = max_level.strip().upper()
     if max_level not in LEVELS:
         raise FFRFError(f"--max-level {max_level!r}: expected one of {', '.join(LEVELS)}")
@@ -339,6 +338,9 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
                         "speed in the config; without one only the rules that hold at rest would be evaluated")
     with step_bar(notes()) as progress:
         results = run_gate([str(b) for b in bodies], options, max_level, jobs, args.mesh_options(), progress)
+    from .guidelines import operating_point
+    from .report.console import gate_report
+    from .report.json_out import SCHEMA_VERSION
     if junit is not None:
         with atomic_path(junit, overwrite=True) as tmp:
             write_junit(results, max_level, tmp)
@@ -386,7 +388,7 @@ def report(bodies: list[Path] = typer.Argument(..., help="Body file(s); several 
     """HTML or PDF report: verdict, evidence, the paper's figures and tables, pictures, Campbell, verification."""
     import tempfile
     from .report import document
-    from .report.console import busy, step_bar
+    from .report.progress import busy, step_bar
     from .report.write import check_report_target, write
     check_report_target(output, bodies, force)
     if verification and len(verification) != len(bodies):
@@ -445,7 +447,7 @@ def _compile_note():
 def _study(folder: Optional[Path], *args, **kwargs):
     """verify.study.run_study(*args, **kwargs) with a progress bar, and its figures written into ``folder``
     when given (report.verify_figures): (study, paths of the figures)."""
-    from .report.console import step_bar
+    from .report.progress import step_bar
     from .verify.study import drift_curves, run_study
     with _compile_note(), step_bar(notes()) as progress:
         st = run_study(*args, progress=progress, **kwargs)
@@ -658,8 +660,8 @@ def modes(body: Path = typer.Argument(..., help="Body file (with FE data: residu
 
 def _mode_set_proof(result, advice, loads, names, figures: Optional[Path]):
     """modeset_proof.prove with a progress bar, and its chart written into ``figures`` when given."""
-    from .report.console import step_bar
     from .report.modes_out import proof_figure
+    from .report.progress import step_bar
     from .modeset_proof import prove
     with _compile_note(), step_bar(notes()) as progress:
         proof = prove(result, advice, loads, names, progress)
@@ -763,7 +765,8 @@ def simulate(body: Path = typer.Argument(..., help="Body file."), terms: Terms =
     from .io import sha256
     from .io.atomic import not_an_input
     from .names import FIXED
-    from .report.console import progress_bar, simulation_report
+    from .report.console import simulation_report
+    from .report.progress import progress_bar
     from .sim.integrate import integrate
     from .sim.model import build_model, initial_state
     from .sim.output import check_output, summary, write_trajectory

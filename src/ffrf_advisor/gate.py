@@ -1,20 +1,26 @@
 """The CI gate: analyse many bodies (in parallel) and compare their level with the model's."""
 from __future__ import annotations
 
+import importlib
+import sys
 import time
-import xml.etree.ElementTree as ET
-from pathlib import Path
-
 from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING
 
-from .analysis import Options, analyze
 from .errors import FFRFError
-from .guidelines import LEVELS
 from .io import check_reader_options, read_body
 from .io.atomic import refuse_inputs
+from .io.guard import importing_meanwhile
+from .names import LEVELS
 from .pool import mapper
-from .report.json_out import analysis_json
 from .report.junit import xml_text
+
+if TYPE_CHECKING:
+    from .analysis import Options
+
+# what a body's record needs after its read, imported while the first reading child parses (as analyze does)
+AFTER_READ = ("ffrf_advisor.analysis", "ffrf_advisor.report.json_out")
 
 def gate_one(path: str, options: Options, max_level: str, read_options: dict | None = None) -> dict:
     """One body's gate record with its wall time; bad input becomes an 'error' entry instead of an exception."""
@@ -26,7 +32,11 @@ def gate_one(path: str, options: Options, max_level: str, read_options: dict | N
 def _gate_record(path: str, options: Options, max_level: str, read_options: dict) -> dict:
     try:
         check_reader_options(path, read_options)
-        result = analysis_json(analyze(read_body(path, load_fe="summary", **read_options), options), path)
+        with importing_meanwhile(*(m for m in AFTER_READ if m not in sys.modules)):  # none: the file libraries
+            body = read_body(path, load_fe="summary", **read_options)
+        from .analysis import analyze
+        from .report.json_out import analysis_json
+        result = analysis_json(analyze(body, options), path)
     except Exception as e:  # noqa: BLE001 - one broken body is reported, never ends the run
         message = str(e) if isinstance(e, FFRFError) else f"{path}: unexpected {type(e).__name__}: {str(e)[:300]}"
         return {"file": path, "level": None, "within": False, "error": message, "evidence": [], "warnings": [],
@@ -48,6 +58,9 @@ def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, read
     """Each body's gate record (gate_one) in order, ``jobs`` processes handing out bodies ``CHUNK`` at a time;
     ``progress(file, done, total)`` after each body when given."""
     results = []
+    if jobs > 1:  # the workers fork with them imported
+        for name in AFTER_READ:
+            importlib.import_module(name)
     with mapper(jobs, chunksize=CHUNK) as map_:
         for record in map_(gate_one, paths, *([x] * len(paths) for x in (options, max_level, read_options))):
             results.append(record)
@@ -66,6 +79,7 @@ def check_junit_target(path: Path, inputs: list[Path], force: bool) -> None:
 
 
 def _is_junit(path: Path) -> bool:
+    import xml.etree.ElementTree as ET
     try:
         return ET.parse(path).getroot().tag in ("testsuites", "testsuite")
     except (ET.ParseError, OSError, ValueError):
@@ -76,6 +90,7 @@ def write_junit(results: list[dict], max_level: str, path: Path) -> None:
     """JUnit XML: <testsuites> with one <testsuite>, one test case per body (with its time); failure text is
     the deciding evidence; every warning of the body goes to the case's system-out (and into the failure
     text), so a pass decided without some measure says so. Names and texts are made valid XML."""
+    import xml.etree.ElementTree as ET
     failures = sum(1 for r in results if not r["error"] and not r["within"])
     errors = sum(1 for r in results if r["error"])
     total = f"{sum(r.get('time', 0.0) for r in results):.3f}"

@@ -12,6 +12,7 @@ from .amplitudes import Amplitudes
 from .body import FlexibleBody
 from .errors import FFRFError
 from .io.atomic import note_input
+from .names import LEVELS
 from .adequacy import basis_errors, modal_widening_stress
 from .response import r_cf2, r_cor
 from .predict import MARGIN, Candidate, candidate_sets, level_of, predictions
@@ -32,7 +33,6 @@ THRESHOLDS = {
     "basis_error": 0.1,         # warn when the kept modes miss the static centrifugal deflection (theory 11)
 }
 CONNECTIONS = ("free", "soft", "stiff")
-LEVELS = ("I", "II", "III", "IV")
 DEFORMATION_CORIOLIS = ("cor_quad", "cor_coupling")  # with cor1: the paper's full Coriolis (G IV)
 
 

@@ -11,7 +11,7 @@ from ffrf_advisor.analysis import Options, analyze
 from ffrf_advisor.body import FlexibleBody
 from ffrf_advisor.errors import FFRFError
 from ffrf_advisor import guidelines
-from ffrf_advisor.guidelines import THRESHOLDS, parse_speed
+from ffrf_advisor.situation import THRESHOLDS, parse_speed
 from ffrf_advisor.invariants import ShapeIntegrals
 from ffrf_advisor.io import read_body
 from ffrf_advisor.significance import centrifugal_terms, coriolis_terms, significance

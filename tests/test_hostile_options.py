@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
-from ffrf_advisor.guidelines import THRESHOLDS
+from ffrf_advisor.situation import THRESHOLDS
 
 BEAM = Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5"
 runner = CliRunner()

@@ -126,3 +126,17 @@ def test_gate_over_bodies_loads_the_file_libraries_while_the_second_body_is_read
     args = ("gate", str(cached_beam), str(cached_beam), "--speed", "300rad/s", "--max-level", "IV")
     code, heavy = heavy_imports(*args)
     assert code == 0 and "h5py" in heavy
+
+
+def test_the_options_are_built_and_checked_without_the_analysis():
+    """situation: a command (gate) builds and checks its options before the first read without importing the
+    analysis modules, which it imports while the reading child parses (gate.AFTER_READ)."""
+    probe = ("import sys\nfrom ffrf_advisor.cli_options import AnalysisArgs\n"
+             "o = AnalysisArgs(speed='300rad/s', threshold=['dI_L=0.01'], tolerance=0.02).options(print)\n"
+             "print(o.situation.w_op, o.situation.tolerance)\n"
+             "print(*sorted(m for m in sys.modules if m.startswith('ffrf_advisor.')))")
+    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
+    values, loaded = run.stdout.splitlines()[-2:]
+    assert values == "300.0 0.02"
+    assert not set(loaded.split()) & {"ffrf_advisor.analysis", "ffrf_advisor.guidelines", "ffrf_advisor.predict",
+                                      "ffrf_advisor.amplitudes", "ffrf_advisor.significance"}, loaded

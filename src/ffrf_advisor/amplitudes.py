@@ -7,10 +7,9 @@ import numpy as np
 
 from .body import FlexibleBody
 from .errors import FFRFError
+from .situation import AmplitudeOptions
 from .units import TMM, factor
 
-SIGMA_ALLOW = 500.0  # N/mm^2, the paper's allowable stress
-Q_CAP = 1.0          # in t-mm units: sqrt(t) * mm
 # Largest nodal deflection at q_max over the largest body dimension above which analyze warns (theory 6). The FFRF
 # keeps the modal kinematics linear (u = S q, and the inertia invariants to second order in q), which holds for
 # small deformations only: the paper asks for deflections one to two orders of magnitude below the body's size,
@@ -18,16 +17,6 @@ Q_CAP = 1.0          # in t-mm units: sqrt(t) * mm
 SMALL_DEFORMATION = 0.05
 FLOOR = 0.1  # of q_max and sigma_allow: a difference below it counts against the floor, not in full (theory 10)
 MAX_DEFLECTION = 1e3  # of the body's largest dimension: given amplitudes beyond are refused
-
-
-@dataclass(frozen=True)
-class AmplitudeOptions:
-    """sigma_allow in N/mm^2 and q_cap in t-mm units (both converted to the body's units)."""
-
-    sigma_allow: float = SIGMA_ALLOW
-    q_cap: float = Q_CAP
-    deflection_cap: float | None = None  # largest nodal deflection / largest dimension of mode 1
-    q_max: tuple[float, ...] | None = None  # given per mode, body units
 
 
 @dataclass(frozen=True)

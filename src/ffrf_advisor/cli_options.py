@@ -14,7 +14,7 @@ import typer
 from .errors import FFRFError
 
 if TYPE_CHECKING:
-    from .analysis import Options
+    from .situation import Options
 
 Speed = Annotated[Optional[str], typer.Option("--speed", help="Operating angular speed: 314rad/s, 3000rpm, 50Hz.")]
 FSys = Annotated[Optional[float], typer.Option("--f-sys", help="First frequency of the assembled system [Hz].")]
@@ -75,7 +75,7 @@ class AnalysisArgs:
     units: UnitSystem = None
 
     def options(self, note: Callable[[str], None]) -> "Options":
-        """analysis.Options from defaults < config file < command line; ``note`` tells how a bare speed
+        """situation.Options from defaults < config file < command line; ``note`` tells how a bare speed
         was read."""
         return build_options(self, note)
 
@@ -145,7 +145,7 @@ def read_any(path: Path, eigenvalues: str | None = None, density: float | None =
 
 
 def thresholds(items: list[str] | None, base: dict) -> dict:
-    from .guidelines import THRESHOLDS
+    from .situation import THRESHOLDS
     out = dict(base)
     for item in items or []:
         name, _, value = item.partition("=")
@@ -179,7 +179,7 @@ def speed_range(text: str | None) -> tuple[float, float] | None:
     low, sep, high = str(text).partition("..")
     if not sep:
         raise FFRFError(f"--speed-range {text!r}: expected LOW..HIGH, e.g. 0..3000rpm")
-    from .guidelines import parse_speed
+    from .situation import parse_speed
     top = parse_speed(high)
     unit = high.strip().lstrip("+-0123456789.eE").strip()
     bottom = parse_speed(low if not is_number(low) or not unit else low.strip() + unit)
@@ -198,9 +198,7 @@ def is_number(text) -> bool:
 
 def build_options(given: AnalysisArgs, note: Callable[[str], None]) -> "Options":
     """Options from defaults < config file < command line; ``note`` tells how a bare speed was read."""
-    from .amplitudes import AmplitudeOptions
-    from .analysis import Options, check_options
-    from .guidelines import Situation, load_config, parse_speed
+    from .situation import AmplitudeOptions, Options, Situation, check_options, load_config, parse_speed
     cfg, config_file = load_config(given.config)
     pick = lambda key, default=None: (getattr(given, key) if getattr(given, key) is not None  # noqa: E731
                                       else cfg.get(key, default))

@@ -17,7 +17,7 @@ from .pool import mapper
 from .report.junit import xml_text
 
 if TYPE_CHECKING:
-    from .analysis import Options
+    from .situation import Options
 
 # what a body's record needs after its read, imported while the first reading child parses (as analyze does)
 AFTER_READ = ("ffrf_advisor.analysis", "ffrf_advisor.report.json_out")

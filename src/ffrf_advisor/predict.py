@@ -63,7 +63,6 @@ KINDS = ("frequency", "mixing", "static", "rigid")
 MARGIN = 2.0   # a set is adequate when every prediction is below tolerance / MARGIN (first-order estimates add)
 DLF = 2.0      # dynamic load factor of a sudden load (theory 10, spin-up and torque pulse)
 FLOOR = 0.1    # of |q_max| and sigma_allow: the floors of verify.measures (tested equal)
-EXCITATIONS = ("vibration", "inertial")
 TERM_LEVEL = {"gyro0": "I", "cf1": "II", "inertia_lin": "II", "cor1": "II", "inertia_quad": "III", "cf2": "III",
               "coupling": "III", "geo_stiff": "III", "cor_quad": "IV", "cor_coupling": "IV"}
 

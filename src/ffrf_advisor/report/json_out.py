@@ -9,7 +9,8 @@ from .. import __version__
 from ..adequacy import summary as basis_summary
 from ..analysis import Analysis
 from ..checks import check_warnings, density_warnings
-from ..guidelines import THRESHOLDS, softening_situations
+from ..guidelines import softening_situations
+from ..situation import THRESHOLDS
 from ..predict import level_of
 from ..significance import Ratio
 from ..sim.cost import cost_ratio

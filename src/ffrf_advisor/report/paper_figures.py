@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..analysis import Analysis  # noqa: E402
-from ..guidelines import THRESHOLDS  # noqa: E402
+from ..situation import THRESHOLDS  # noqa: E402
 from ..sim.linearise import campbell, campbell_speeds  # noqa: E402
 from ..sim.model import build_model  # noqa: E402
 from ..terms import FULL  # noqa: E402

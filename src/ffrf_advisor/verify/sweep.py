@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..analysis import Options, analyze
-from ..guidelines import Situation
+from ..analysis import analyze
+from ..situation import Options, Situation
 from ..io import read_body
 from ..pool import mapper
 from .measures import CRITERIA, worst

@@ -87,7 +87,9 @@ def _static_stiffness(model: Model, w: np.ndarray) -> tuple[np.ndarray, np.ndarr
     """(K, f0): the flexible force at spin w is ``f0 - K q`` (K: Omega^2 - s^2 Kc + s^2 G for the full set)."""
     nf, zero = model.nf, np.zeros(model.nf)
     q = np.vstack([zero, np.eye(nf)])  # q = 0, then q = e_j: one batched evaluation
-    f = eq.flexible_force(model, q, np.zeros_like(q), w, zero)
+    d = eq.Deformed(model, q)
+    d.Sq = np.concatenate([np.zeros((1, *model.Sbar.shape[:3])), np.moveaxis(model.Sbar, 3, 0)])  # Sbar q, exactly
+    f = eq.flexible_force(model, q, np.zeros_like(q), w, zero, d)
     return -(f[1:] - f[0]).T, f[0]  # a column of K per q = e_j
 
 

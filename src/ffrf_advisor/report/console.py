@@ -157,11 +157,11 @@ def fitted_table(console: Console, title: str, headers, rows, left=(), prose: st
         t = Table(title=title)
         for h, w in zip(headers, widths):
             t.add_column(h, justify="left" if h in left or h == prose else "right", width=w)
-        if wraps:
-            for row in rows:
-                t.add_row(*row)
-        elif rows:
-            t.add_row(*("\n".join(column) for column in zip(*rows)))
+        if not wraps and rows:
+            _boxed(console, t, widths, rows)
+            return
+        for row in rows:
+            t.add_row(*row)
         console.print(t)
         return
     console.print(title, highlight=False)
@@ -169,6 +169,53 @@ def fitted_table(console: Console, title: str, headers, rows, left=(), prose: st
         console.print(f"{plain[0]} {row[0]}:", highlight=False)
         console.print(Padding(escape("; ".join(f"{h} {v}" for h, v in zip(plain[1:], row[1:]))), (0, 0, 0, 4)),
                       highlight=False)
+
+
+def _boxed(console: Console, table: Table, widths: list[int], rows) -> None:
+    """``table`` (a rich Table with a title and its columns, no rows yet) with ``rows`` of one line each, drawn
+    line by line as rich draws it: the title wrapped and centred over the table's width, the headers wrapped
+    into their columns and aligned to the bottom, the box of table.box; the body as plain lines (a value's
+    markup rendered where it has some). rich lays out every cell of a table on its own (a 100-mode body's
+    q_max table: 25-30 ms); this takes a few."""
+    pad = [w + 2 for w in widths]
+    box = table.box.substitute(console.options, safe=console.safe_box)
+    title = console.render_str(table.title, style="table.title", highlight=False)
+    for line in title.wrap(console, sum(pad) + len(pad) + 1, justify="center"):
+        console.print(line, no_wrap=True, crop=False)
+    heads = [console.render_str(c.header, style="table.header", highlight=False).wrap(console, w, justify=c.justify)
+             for c, w in zip(table.columns, widths)]
+    height = max(len(h) for h in heads)
+    console.print(box.get_top(pad), highlight=False, no_wrap=True, crop=False)
+    for k in range(height):
+        line = Text(box.head_left)
+        for i, (h, w) in enumerate(zip(heads, widths)):
+            edge = Text(" ", style="table.header")
+            line.append_text(edge + h[k - height + len(h)] + edge if k >= height - len(h)
+                             else Text(" " * (w + 2), style="table.header"))  # above a shorter header
+            line.append(box.head_right if i == len(widths) - 1 else box.head_vertical)
+        console.print(line, no_wrap=True, crop=False)
+    console.print(box.get_row(pad, "head"), highlight=False, no_wrap=True, crop=False)
+    if any("[" in v or not v.isascii() for row in rows for v in row):  # markup rendered, cells measured as rich
+        body = Text("\n").join(Text(box.foot_left) + Text(box.foot_vertical).join(
+            Text(" ") + _padded(_cell(v), w, c.justify) + Text(" ") for v, w, c in zip(row, widths, table.columns))
+            + Text(box.foot_right) for row in rows)
+    else:
+        just = [str.ljust if c.justify == "left" else str.rjust for c in table.columns]
+        body = "\n".join(box.foot_left + box.foot_vertical.join(f" {j(v, w)} " for v, w, j in zip(row, widths, just))
+                         + box.foot_right for row in rows)
+    console.print(body, markup=False, highlight=False, no_wrap=True, crop=False)
+    console.print(box.get_bottom(pad), highlight=False, no_wrap=True, crop=False)
+
+
+def _cell(value: str) -> Text:
+    """A value as rich shows it in a cell: its markup rendered."""
+    return Text.from_markup(value, emoji=False) if "[" in value else Text(value)
+
+
+def _padded(text: Text, width: int, justify: str) -> Text:
+    """``text`` padded with blanks to ``width`` on the side ``justify`` leaves free."""
+    gap = " " * max(width - text.cell_len, 0)
+    return text + gap if justify == "left" else Text(gap) + text
 
 
 def _plain(value: str) -> str:

@@ -111,6 +111,9 @@ class AmplitudeOptions:
 
 @dataclass(frozen=True)
 class Options:
+    """One analysis's options: the amplitudes', the situation, and how many modes the ratios take (theory 7;
+    None: significance.N_RATIO, or all where fewer)."""
+
     amplitudes: AmplitudeOptions = field(default_factory=AmplitudeOptions)
     situation: Situation = field(default_factory=Situation)
     n_ratio: int | None = None
@@ -118,10 +121,10 @@ class Options:
 
 def _number(name: str, value, positive: bool) -> None:
     """``value`` must be a finite number, positive (or non-negative): one line naming the option otherwise."""
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and (value > 0 if positive else value >= 0)
+    ok = (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+          and (value > 0 if positive else value >= 0))
     if not ok:
         raise FFRFError(f"{name} {value!r}: expected a finite {'positive' if positive else 'non-negative'} number")
-
 
 
 def check_options(options: Options) -> None:
@@ -213,7 +216,8 @@ def _validated(cfg: dict, path: Path) -> dict:
         raise FFRFError(f"{path}: config: unknown key(s) {sorted(unknown)}; expected {sorted(CONFIG_KEYS)}")
     thresholds = cfg.get("thresholds", {})
     if not isinstance(thresholds, dict):
-        raise FFRFError(f"{path}: config thresholds: expected a table [thresholds] of NAME = NUMBER, got {thresholds!r}")
+        raise FFRFError(f"{path}: config thresholds: expected a table [thresholds] of NAME = NUMBER, "
+                        f"got {thresholds!r}")
     bad = set(thresholds) - set(THRESHOLDS)
     if bad:
         raise FFRFError(f"{path}: config thresholds: unknown {sorted(bad)}; expected {sorted(THRESHOLDS)}")

@@ -440,6 +440,24 @@ def test_the_inertia_bound_over_pairs_equals_the_sum_pair_by_pair():
     assert inertia_bound(ref, bare, D) == pytest.approx(expected, rel=1e-12, abs=0)
 
 
+def test_the_deformation_inertia_from_the_modes_parts_equals_that_of_all_parts_together():
+    """predict.deformation_inertia (the modes' pairs once per amplitude, then the static deflection's) against
+    inertia_parts over the rows of diag(amplitude) and q_static together, on the beam's invariants (the same
+    sums in another order: rel 1e-12)."""
+    from ffrf_advisor.predict import deformation_inertia, inertia_parts
+    from ffrf_advisor.sim.model import build_model
+    from ffrf_advisor.terms import FULL
+    body = read_body(DIR / "beam.ffrf.h5", load_fe=False)
+    ref = build_model(body, FULL)
+    rng = np.random.default_rng(5)
+    amplitude, q_static = rng.uniform(0.1, 1.0, body.nf), rng.normal(size=body.nf)
+    together = inertia_parts(ref, np.vstack([np.diag(amplitude), q_static]))
+    found = deformation_inertia(ref, amplitude, q_static)
+    assert set(found) == set(together) == {"inertia_lin", "inertia_quad", "coupling"}
+    for name, part in together.items():
+        assert found[name] == pytest.approx(part, rel=1e-12, abs=0), name
+
+
 def test_linearised_spectra_on_two_threads_equal_those_taken_one_after_the_other(monkeypatch):
     """The spectra the predictions take on two threads (one BLAS thread each; forced here for the beam's 35 states
     and two processors) are those of ``modal_spectrum`` called in turn: the same frequencies to round-off of

@@ -242,21 +242,34 @@ def static_error(body: FlexibleBody, q: np.ndarray, q_ref: np.ndarray, q_max: np
     return float(e)
 
 
-def inertia_parts(ref: Model, D: np.ndarray) -> dict[str, np.ndarray]:
+def inertia_parts(ref: Model, D: np.ndarray, E: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Elementwise bounds (3, 3) of the groups of ``ref``'s inertia ``I_TT - C C^T`` ("inertia_lin",
     "inertia_quad", "coupling": those ref carries) over every deformation ``sum_i +-D[i]`` (rows: the parts of
     the deformation), by the triangle inequality: the linear terms once per part, the quadratic ones once per
-    ordered pair (i, j) (symmetric in i, j: twice per pair i < j)."""
+    ordered pair (i, j) (symmetric in i, j: twice per pair i < j). With ``E``: the quadratic terms of the pairs
+    of a row of D with a row of E alone, each once (the parts of the rows of D and E together are those of D,
+    of E and twice these)."""
+    F = D if E is None else E
     parts = {}
-    if ref.on("inertia_lin"):
+    if ref.on("inertia_lin") and E is None:
         parts["inertia_lin"] = np.abs(eq.linear_inertia(ref, D)).sum(axis=0)
     if ref.on("inertia_quad"):
-        parts["inertia_quad"] = np.abs(eq.quadratic_inertia(ref, D, D, pairs=True)).sum(axis=(0, 1))  # all pairs
+        parts["inertia_quad"] = np.abs(eq.quadratic_inertia(ref, D, F, pairs=True)).sum(axis=(0, 1))  # all pairs
     if ref.on("coupling"):
-        C = eq.coupling_matrix(ref, D)
-        CC = np.tensordot(C, C, axes=([2], [2])).transpose(0, 2, 1, 3)  # C_i C_j^T for every pair (i, j, k, l)
-        parts["coupling"] = np.abs(0.5 * (CC + np.swapaxes(CC, 0, 1))).sum(axis=(0, 1))
+        CC = np.tensordot(eq.coupling_matrix(ref, D), eq.coupling_matrix(ref, F), axes=([2], [2]))
+        CC = CC.transpose(0, 2, 1, 3)  # C_i C_j^T for every pair (i, j, k, l)
+        parts["coupling"] = np.abs(0.5 * (CC + np.swapaxes(CC, 2, 3))).sum(axis=(0, 1))
     return parts
+
+
+def deformation_inertia(ref: Model, amplitude: np.ndarray, q_static: np.ndarray, modal: dict | None = None):
+    """``inertia_parts`` over every mode at its amplitude (any signs) plus the static deflection: those of the
+    modes alone (``modal``: ``inertia_parts`` of ``diag(amplitude)`` where the caller has them, the same at
+    every point of one amplitude), of the static deflection alone and twice those of their pairs."""
+    modes, static = np.diag(amplitude), q_static[None, :]
+    modal = inertia_parts(ref, modes) if modal is None else modal
+    own, pairs = inertia_parts(ref, static), inertia_parts(ref, modes, static)
+    return {k: modal[k] + own[k] + 2 * pairs.get(k, 0.0) for k in modal}
 
 
 def inertia_bound(ref: Model, model: Model, D: np.ndarray) -> np.ndarray:
@@ -288,18 +301,13 @@ def momentum_exchange(W3k: np.ndarray, om: np.ndarray, amplitude: np.ndarray, q_
     return np.einsum("kpq,pq->k", np.abs(W3k), pair / 2 + static)  # pair / 2: each pair is counted twice
 
 
-def deformation_parts(q_static: np.ndarray, amplitude: np.ndarray) -> np.ndarray:
-    """(nf + 1, nf): every mode at its amplitude, then the static deflection (the parts D of ``inertia_parts``)."""
-    return np.vstack([np.diag(amplitude), q_static[None, :]])
-
-
 def rigid_error(ref: Model, model: Model, q_static: np.ndarray, amplitude: np.ndarray, s: float,
                 parts: dict | None = None) -> float:
     """Relative error of w: ``max_k |dI e_k| / I0_kk`` at the static deflection plus every mode at its
     amplitude (any signs), and without the W3 group the internal angular momentum the vibrating modes exchange
     with the rigid motion within the response time (``momentum_exchange``), over ``I0_kk s``; ``parts``: the
-    ``inertia_parts`` of ``deformation_parts`` where the caller has them (one point, many sets)."""
-    parts = inertia_parts(ref, deformation_parts(q_static, amplitude)) if parts is None else parts
+    ``deformation_inertia`` where the caller has it (one point, many sets)."""
+    parts = deformation_inertia(ref, amplitude, q_static) if parts is None else parts
     I0 = np.diag(ref.I0)
     e = float(np.max(np.linalg.norm(_left_out(parts, model), axis=0) / I0))
     if ref.on("coupling") and not model.on("coupling"):
@@ -325,10 +333,11 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
               for i_axis, a in enumerate(axes) for s in speeds if s > 0]
     errors = np.zeros((len(sets), len(KINDS)))
     where = np.zeros((len(sets), len(KINDS)), dtype=int)
+    modal: dict = {}  # the modes' inertia_parts by their amplitudes (_at)
     for i_axis, a, s in points:
         settled = [bool(np.isinf(errors[i, KINDS.index("frequency")])) for i in own]
         ref_spectrum, rest = _point_spectra(ref, [models[i] for i in own], settled, a, s)
-        e = _at(body, ref, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum,
+        e = _at(body, ref, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, modal,
                 {i: rest[distinct.index(key)] for i, key in enumerate(keys) if key in distinct})
         worse = e > errors
         errors = np.where(worse, e, errors)
@@ -380,15 +389,22 @@ def _point_spectra(ref: Model, models: list[Model], settled: list[bool], a, s: f
     return spectra[0], spectra[1:]
 
 
-def _at(body, ref: Model, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, spectra) -> np.ndarray:
+def _at(body, ref: Model, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, modal: dict,
+        spectra) -> np.ndarray:
     """(sets, KINDS) predictions at one spin s about one axis a, from the ``modal_spectrum`` at (a, s) of the
     reference and of each set by its index (``spectra``; a set missing there has the reference's acting terms:
-    0; frequencies None: a settled set's, ``_point_spectra``)."""
+    0; frequencies None: a settled set's, ``_point_spectra``); ``modal``: the modes' ``inertia_parts`` by their
+    amplitudes, filled here (one entry for every point where only the modes' vibration drives them)."""
     f_ref, V_ref, q_ref = ref_spectrum
     amplitude = modal_amplitude(excitation, q_max, q_ref)
     mix = mixing(body, a, s, q_max, sigma_allow, amplitude)
     widening = exact_widening(body, a, s)
-    parts = None if stiff else inertia_parts(ref, deformation_parts(q_ref, amplitude))  # shared by the sets
+    parts = None  # shared by the sets
+    if not stiff:
+        key = amplitude.tobytes()
+        if key not in modal:
+            modal[key] = inertia_parts(ref, np.diag(amplitude))
+        parts = deformation_inertia(ref, amplitude, q_ref, modal[key])
     out = np.zeros((len(models), len(KINDS)))
     for i, (f, V, q) in spectra.items():
         model = models[i]

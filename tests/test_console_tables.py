@@ -23,7 +23,7 @@ def _console(width: int, terminal: bool) -> Console:
                    else None, emoji=False, highlight=False)
 
 
-def _by_rich(width: int, terminal: bool, rows) -> str:
+def _by_rich(width: int, terminal: bool, rows, title: str = TITLE) -> str:
     """The table as rich renders it: fitted_table's widths and justification, each column one cell of its values."""
     console = _console(width, terminal)
     plain = [rc._plain(h) for h in HEADERS]
@@ -31,7 +31,7 @@ def _by_rich(width: int, terminal: bool, rows) -> str:
     widths = rc._widths(text, plain, None, whole=True)
     if sum(widths) + 3 * len(HEADERS) + 1 > width:
         widths = rc._widths(text, plain, None, whole=False)
-    t = Table(title=TITLE)
+    t = Table(title=title)
     for h, w in zip(HEADERS, widths):
         t.add_column(h, justify="left" if h == "governs" else "right", width=w)
     t.add_row(*("\n".join(column) for column in zip(*rows)))
@@ -49,3 +49,9 @@ def test_fitted_tables_are_rich_tables_byte_for_byte(width, terminal, rows):
     console = _console(width, terminal)
     rc.fitted_table(console, TITLE, HEADERS, rows, left=("governs",))
     assert console.file.getvalue() == _by_rich(width, terminal, rows)
+
+
+def test_a_table_without_a_title_has_no_title_line():
+    console = _console(80, False)
+    rc.fitted_table(console, "", HEADERS, ROWS, left=("governs",))
+    assert console.file.getvalue() == _by_rich(80, False, ROWS, title="")

@@ -22,6 +22,7 @@ if TYPE_CHECKING:
 # what a body's record needs after its read, imported while the first reading child parses (as analyze does)
 AFTER_READ = ("ffrf_advisor.analysis", "ffrf_advisor.report.json_out")
 
+
 def gate_one(path: str, options: Options, max_level: str, read_options: dict | None = None) -> dict:
     """One body's gate record with its wall time; bad input becomes an 'error' entry instead of an exception."""
     start = time.perf_counter()

@@ -139,9 +139,8 @@ def fitted_table(console: Console, title: str, headers, rows, left=(), prose: st
     """A table whose columns are as wide as their longest value or header (where that is wider than the
     console, header word: headers break at blanks, values never; the ``prose`` column, a left-justified text,
     wraps at blanks into the width the others leave, at least its longest word); where that is still wider than
-    the console, one stacked block per row instead (right at any width). Where no value wraps, each column goes
-    in as one cell of all its values, one a line: the same lines as a row per value (the box draws no line
-    between rows), rendered in a third of the time (rich lays out each cell on its own: 0.5 ms a row)."""
+    the console, one stacked block per row instead (right at any width). Where no value wraps, ``_boxed`` draws
+    it line by line as rich would (rich lays out each cell on its own: 0.5 ms a row)."""
     plain = [_plain(h) for h in headers]
     text = [[_plain(v) for v in r] for r in rows]  # what a value shows: its markup (a colour) takes no width
     frame = 3 * len(headers) + 1
@@ -179,8 +178,8 @@ def _boxed(console: Console, table: Table, widths: list[int], rows) -> None:
     q_max table: 25-30 ms); this takes a few."""
     pad = [w + 2 for w in widths]
     box = table.box.substitute(console.options, safe=console.safe_box)
-    title = console.render_str(table.title, style="table.title", highlight=False)
-    for line in title.wrap(console, sum(pad) + len(pad) + 1, justify="center"):
+    title = console.render_str(table.title or "", style="table.title", highlight=False)
+    for line in title.wrap(console, sum(pad) + len(pad) + 1, justify="center") if table.title else ():
         console.print(line, no_wrap=True, crop=False)
     heads = [console.render_str(c.header, style="table.header", highlight=False).wrap(console, w, justify=c.justify)
              for c, w in zip(table.columns, widths)]
@@ -220,7 +219,7 @@ def _padded(text: Text, width: int, justify: str) -> Text:
 
 def _plain(value: str) -> str:
     """The text ``value`` shows, its rich markup (``[green]``) taken out."""
-    return Text.from_markup(value, emoji=False).plain if "[" in value else value
+    return _cell(value).plain if "[" in value else value
 
 
 def _widths(rows, headers: list[str], prose: int | None, whole: bool) -> list[int]:

@@ -16,9 +16,9 @@ import sys
 BLAS_SPIN = ("OPENBLAS_THREAD_TIMEOUT", "16")
 
 
-def rest_idle_blas_workers(environ=os.environ) -> None:
+def rest_idle_blas_workers() -> None:
     """Give OpenBLAS's idle workers a short spin (BLAS_SPIN) unless the environment sets one."""
-    environ.setdefault(*BLAS_SPIN)
+    os.environ.setdefault(*BLAS_SPIN)
 
 
 def main() -> None:

@@ -333,7 +333,8 @@ def predictions(body: FlexibleBody, sets: list[tuple[str, tuple[str, ...]]], axe
               for i_axis, a in enumerate(axes) for s in speeds if s > 0]
     errors = np.zeros((len(sets), len(KINDS)))
     where = np.zeros((len(sets), len(KINDS)), dtype=int)
-    modal: dict = {}  # the modes' inertia_parts by their amplitudes (_at)
+    modal = (None if stiff or excitation != "vibration"  # the modes' own inertia parts: the same at every point
+             else inertia_parts(ref, np.diag(modal_amplitude(excitation, q_max, None))))
     for i_axis, a, s in points:
         settled = [bool(np.isinf(errors[i, KINDS.index("frequency")])) for i in own]
         ref_spectrum, rest = _point_spectra(ref, [models[i] for i in own], settled, a, s)
@@ -389,22 +390,17 @@ def _point_spectra(ref: Model, models: list[Model], settled: list[bool], a, s: f
     return spectra[0], spectra[1:]
 
 
-def _at(body, ref: Model, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, modal: dict,
+def _at(body, ref: Model, models, a, s, q_max, sigma_allow, stiff, excitation, ref_spectrum, modal: dict | None,
         spectra) -> np.ndarray:
     """(sets, KINDS) predictions at one spin s about one axis a, from the ``modal_spectrum`` at (a, s) of the
     reference and of each set by its index (``spectra``; a set missing there has the reference's acting terms:
-    0; frequencies None: a settled set's, ``_point_spectra``); ``modal``: the modes' ``inertia_parts`` by their
-    amplitudes, filled here (one entry for every point where only the modes' vibration drives them)."""
+    0; frequencies None: a settled set's, ``_point_spectra``); ``modal``: the modes' own ``inertia_parts`` where
+    their amplitudes are the same at every point (``deformation_inertia``)."""
     f_ref, V_ref, q_ref = ref_spectrum
     amplitude = modal_amplitude(excitation, q_max, q_ref)
     mix = mixing(body, a, s, q_max, sigma_allow, amplitude)
     widening = exact_widening(body, a, s)
-    parts = None  # shared by the sets
-    if not stiff:
-        key = amplitude.tobytes()
-        if key not in modal:
-            modal[key] = inertia_parts(ref, np.diag(amplitude))
-        parts = deformation_inertia(ref, amplitude, q_ref, modal[key])
+    parts = None if stiff else deformation_inertia(ref, amplitude, q_ref, modal)  # shared by the sets
     out = np.zeros((len(models), len(KINDS)))
     for i, (f, V, q) in spectra.items():
         model = models[i]

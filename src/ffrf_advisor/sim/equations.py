@@ -65,6 +65,11 @@ def sbar_times(m: Model, r: np.ndarray) -> np.ndarray:
     return np.tensordot(r, m.Sbar, axes=([-1], [3]))
 
 
+def sbar_columns(m: Model) -> np.ndarray:
+    """``sbar_times`` of every unit vector e_j (nf, 3, 3, nf): Sbar's columns, exactly (no product)."""
+    return np.moveaxis(m.Sbar, 3, 0)
+
+
 def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray, pairs: bool = False,
                       Sr: np.ndarray | None = None) -> np.ndarray:
     """``tr(G) I - G`` with the symmetrised ``G[a, b] = 0.5 (q^T Sbar_ab r + r^T Sbar_ab q)``.
@@ -83,6 +88,11 @@ def quadratic_inertia(m: Model, q: np.ndarray, r: np.ndarray, pairs: bool = Fals
 def coupling_matrix(m: Model, q: np.ndarray) -> np.ndarray:
     """``C = Qf^T W3`` (3 x nf): rows ``W3k[k]^T q`` (one BLAS product over the batch)."""
     return np.tensordot(q, m.W3k, axes=([-1], [1]))
+
+
+def coupling_columns(m: Model) -> np.ndarray:
+    """``coupling_matrix`` of every unit vector e_j (nf, 3, nf): W3's columns, exactly (no product)."""
+    return np.moveaxis(m.W3k, 1, 0)
 
 
 def inertia(m: Model, q: np.ndarray, Sq: np.ndarray | None = None) -> np.ndarray:

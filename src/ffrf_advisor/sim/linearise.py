@@ -88,7 +88,7 @@ def _static_stiffness(model: Model, w: np.ndarray) -> tuple[np.ndarray, np.ndarr
     nf, zero = model.nf, np.zeros(model.nf)
     q = np.vstack([zero, np.eye(nf)])  # q = 0, then q = e_j: one batched evaluation
     d = eq.Deformed(model, q)
-    d.Sq = np.concatenate([np.zeros((1, *model.Sbar.shape[:3])), np.moveaxis(model.Sbar, 3, 0)])  # Sbar q, exactly
+    d.Sq = np.concatenate([np.zeros((1, *model.Sbar.shape[:3])), eq.sbar_columns(model)])  # Sbar q, exactly
     f = eq.flexible_force(model, q, np.zeros_like(q), w, zero, d)
     return -(f[1:] - f[0]).T, f[0]  # a column of K per q = e_j
 
@@ -134,11 +134,11 @@ class _Stepped(eq.Deformed):
 
     @cached_property
     def Sq(self) -> np.ndarray:
-        return self._stepped(eq.sbar_times(self.m, self.q0), np.moveaxis(self.m.Sbar, 3, 0))
+        return self._stepped(eq.sbar_times(self.m, self.q0), eq.sbar_columns(self.m))
 
     @cached_property
     def C(self) -> np.ndarray:
-        return self._stepped(eq.coupling_matrix(self.m, self.q0), np.moveaxis(self.m.W3k, 1, 0))
+        return self._stepped(eq.coupling_matrix(self.m, self.q0), eq.coupling_columns(self.m))
 
 
 def compiled_jacobian(model: Model):
@@ -251,7 +251,8 @@ def _blocks(J: np.ndarray, steps: np.ndarray) -> list[np.ndarray] | None:
 def _components(linked: np.ndarray) -> np.ndarray:
     """Per index its connected component (0, 1, ... in order of first index) of the undirected graph with an
     edge where ``linked[i, j]`` or ``linked[j, i]``: every index takes the least label among its neighbours
-    and then its label's label, until nothing changes."""
+    and then its label's label, until nothing changes (scipy.sparse.csgraph would import scipy, which the
+    analysis of a cached body never loads)."""
     n = len(linked)
     near = linked | linked.T | np.eye(n, dtype=bool)
     label = np.arange(n)

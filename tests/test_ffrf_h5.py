@@ -214,12 +214,13 @@ def _analyze_json(path) -> dict:
 
 
 def test_analyze_of_a_body_with_its_nodal_summary_reads_no_nodal_data(tmp_path):
-    """Issue 24, item 3: the shipped beam (written before the nodal summary) reads its nodal data for analyze;
-    written again it carries the summary, equal to the nodal data's, and analyze gives the same JSON when its
-    modes/Phi, mesh and mass are NaN (declared, never written, NaN as fill value: reading them fails)."""
-    old = _analyze_json(SHIPPED_BEAM)
+    """Issue 24, item 3: the beam written with its nodal data carries the nodal summary, equal to the nodal
+    data's, and analyze gives the same JSON when its modes/Phi, mesh and mass are NaN (declared, never written,
+    NaN as fill value: reading them fails). Both runs read the invariants this write cached (the shipped file's
+    were computed on another processor: recomputed here they may differ in the last bit)."""
     path = tmp_path / "beam.ffrf.h5"
     write_body(read_body(SHIPPED_BEAM, load_fe=True), path)
+    old = _analyze_json(path)
     with h5py.File(path, "r") as f:
         summary = f["nodal_summary"].attrs
         assert summary["n_nodes"] == f["mesh/points"].shape[0] and summary["stiffness"] == ("stiffness/K" in f)
@@ -231,10 +232,7 @@ def test_analyze_of_a_body_with_its_nodal_summary_reads_no_nodal_data(tmp_path):
             dtype, shape = f[name].dtype, f[name].shape
             del f[name]
             f.create_dataset(name, shape=shape, dtype=dtype, fillvalue=np.nan)
-    new = _analyze_json(path)
-    for d in (old, new):
-        d["body"].pop("file", None)
-    assert new == old
+    assert _analyze_json(path) == old
     with pytest.raises(BodyFileError, match="NaN or inf"):
         read_body(path, load_fe=True)
 

@@ -74,6 +74,30 @@ def test_a_config_file_in_the_working_directory_is_named(tmp_path, monkeypatch):
     assert json.loads(runner.invoke(app, [*args, "--json"]).stdout)["situation"]["config"] is None
 
 
+@pytest.mark.parametrize("text, found", [
+    ('[tool.ffrf-advisor]\nspeed = "200rad/s"\n', {"speed": "200rad/s"}),
+    ('[tool."\\u0066frf-advisor"]\nspeed = "200rad/s"\n', {"speed": "200rad/s"}),  # the key through an escape
+    ('tool.ffrf-advisor.speed = "200rad/s"\n', {"speed": "200rad/s"}),  # dotted
+    ('[tool]\nffrf-advisor = { speed = "200rad/s" }\n', {"speed": "200rad/s"}),
+    ('tool = { "ffrf-advisor" = { speed = "200rad/s" } }\n', {"speed": "200rad/s"}),
+    ('[ "tool" . \'ffrf-advisor\' ]\nspeed = "200rad/s"\n', {"speed": "200rad/s"}),
+    ('[project]\nname = "x"\n', {}),
+    ('[project\nname = "ffrf-advisor"  # not TOML, and no table of this tool in it: not parsed\n', {}),
+    ('[project]\ndependencies = ["ffrf-advisor"]\n[project.scripts]\nffrf-advisor = "x"\n[tool.pytest]\nx = [\n', {}),
+])
+def test_a_pyproject_toml_is_parsed_only_where_it_can_hold_the_table(tmp_path, text, found):
+    """[tool.ffrf-advisor] of pyproject.toml, however its key is written; a pyproject.toml that cannot hold the
+    table (situation.TOOL_TABLE: "ffrf-advisor" elsewhere, other tools' tables) is not parsed; one that can and
+    is not TOML is refused."""
+    from ffrf_advisor.errors import FFRFError
+    from ffrf_advisor.situation import load_config
+    (tmp_path / "pyproject.toml").write_text(text)
+    assert load_config(cwd=tmp_path)[0] == found
+    (tmp_path / "pyproject.toml").write_text("[project\n[tool.ffrf-advisor]\n")
+    with pytest.raises(FFRFError, match="expected readable TOML"):
+        load_config(cwd=tmp_path)
+
+
 def test_verify_tells_its_progress_once_per_step_up_to_the_total():
     """The progress of verify (issue 25): every run and study is told once; the count ends at the total."""
     from ffrf_advisor.analysis import Options, analyze

@@ -299,7 +299,7 @@ def info(body: Path = typer.Argument(..., help="Body file (any format, see `form
 def analyze(body: Path = typer.Argument(..., help="Body file."), as_json: AsJson = False, *,
             args: AnalysisArgs):
     """Recommend the equation-of-motion level I-IV with the term set and the numbers that decided it."""
-    with _importing(".modeset", ".report.console", ".report.json_out", ".report.modes_out"):
+    with _importing(".modeset", ".verify.scenes", ".report.console", ".report.json_out", ".report.modes_out"):
         b = args.read(body, load_fe="summary")
     from .modeset import ANALYZE_SCENES, advise_modes
     from .report.console import analysis_summary
@@ -636,7 +636,7 @@ def modes(body: Path = typer.Argument(..., help="Body file (with FE data: residu
     if figures is not None and not verify:
         raise FFRFError("--figures: expected --verify too (the chart is of the simulation)")
     # while the child reads: what follows, and scipy.sparse.linalg for the FE static solves of inertia_loads
-    with _importing(".analysis", ".modeset", ".report.modes_out", "scipy.sparse.linalg"):
+    with _importing(".analysis", ".modeset", ".verify.scenes", ".report.modes_out", "scipy.sparse.linalg"):
         read = args.read(body)
     from .modeset import INERTIAL_SCENES, advise_modes, inertia_loads, reduced_body
     from .report.modes_out import modes_json, modes_report, proof_json, proof_report

@@ -175,32 +175,3 @@ def test_the_chart_has_hz_against_rad_s_w_op_s_crit_and_per_revolution_lines_and
     names = [t.get_text() for t in legend.get_texts()]
     assert "I = II" in names and "advised = IV (full) (reference)" in names and "III" in names
     assert legend.get_window_extent().y1 <= min(ax.get_window_extent().y0 for ax in axes)  # below the panels
-
-
-@pytest.mark.parametrize("name", ["beam", "genstruct1", "conrod"])
-def test_the_compiled_jacobian_takes_the_same_differences_as_the_numpy_one(name):
-    """linearise.compiled_jacobian (sim.kernels' right-hand side, verify's Campbell study) against the batched
-    plain-numpy jacobian at spinning, deformed, vibrating states, for the reference set and levels I and II.
-    Both take the same steps h_j, so they differ only by the rounding of two evaluation orders divided by the
-    step: per entry at most eps x cond(I0) (the rates pass a 3 x 3 solve with I0) x the size of the rate's
-    terms (|J| |x| + |f|) / h_j, times 16. The Campbell branches they give agree to 1e-6 (4e-8 seen: the
-    linearisation's rounding; far below the digits reported) with the same gaps."""
-    from ffrf_advisor.sim.linearise import _difference_steps, _rates, compiled_jacobian, jacobian
-    from ffrf_advisor.terms import LEVEL_SETS
-    body = read_body(Path(__file__).resolve().parent.parent / "sample_bodies" / f"{name}.ffrf.h5")
-    rng = np.random.default_rng(7)
-    eps, om = np.finfo(float).eps, np.sqrt(body.eigenvalues)
-    for terms in ((*FULL, "geo_stiff"), LEVEL_SETS["I"], LEVEL_SETS["II"]):
-        model = build_model(body, terms)
-        jac = compiled_jacobian(model)
-        for _ in range(3):
-            x = np.concatenate([rng.normal(size=3) * 300, rng.normal(size=body.nf) * 1e-3 / om,
-                                rng.normal(size=body.nf) * 1e-3])
-            J = jacobian(model, x)
-            size = np.abs(J) @ np.abs(x) + np.abs(_rates(model, x))
-            bound = 16 * eps * np.linalg.cond(model.I0) * np.outer(size, 1 / _difference_steps(model, x))
-            assert np.all(np.abs(jac(model, x) - J) <= bound)
-        speeds = np.linspace(0, 400, 9)
-        plain, fast = campbell(model, (0, 0, 1), speeds), campbell(model, (0, 0, 1), speeds, jac)
-        assert list(plain.gaps) == list(fast.gaps)
-        assert np.allclose(plain.frequencies, fast.frequencies, rtol=1e-6, atol=0, equal_nan=True)

@@ -245,15 +245,13 @@ def test_compiling_ahead_gives_the_signatures_the_runs_use(beam):
     """integrate.compile_ahead compiles each integrator for the argument types its runs pass: after it, a run of
     each adds no second signature (else the tests' workers would compile ahead in vain, conftest.py)."""
     from ffrf_advisor.sim import dop853, midpoint
-    from ffrf_advisor.sim.linearise import compiled_jacobian
     integ.compile_ahead(integ.COMPILED)
     _, model = beam
     y0 = initial_state(model, (0.0, 0.0, 30.0), np.full(model.nf, 1e-4))
     for method in ("rk4", "rk4-lie", "dop853", "midpoint"):
         integrate(model, y0, 1e-4, method, step=None if method == "dop853" else 1e-5, progress=lambda _: None)
-    compiled_jacobian(model)(0.0, y0[4:])
-    dispatchers = (kernels.rk4_loop, dop853.integrate_dop853, midpoint.midpoint_loop, kernels.jacobian_into)
-    assert [len(d.signatures) for d in dispatchers] == [1, 1, 1, 1]
+    dispatchers = (kernels.rk4_loop, dop853.integrate_dop853, midpoint.midpoint_loop)
+    assert [len(d.signatures) for d in dispatchers] == [1, 1, 1]
 
 
 @pytest.mark.slow

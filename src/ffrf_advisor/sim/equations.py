@@ -98,7 +98,7 @@ def coupling_columns(m: Model) -> np.ndarray:
 def inertia(m: Model, q: np.ndarray, Sq: np.ndarray | None = None) -> np.ndarray:
     """``I_TT`` of the term set: I0, plus W1 Qf with inertia_lin, plus J2 with inertia_quad (``Sq``:
     ``sbar_times(m, q)`` where the caller has it)."""
-    J = np.broadcast_to(np.asarray(m.I0, float), (*q.shape[:-1], 3, 3)).copy()
+    J = np.broadcast_to(m.I0, (*q.shape[:-1], 3, 3)).astype(np.result_type(q, float))  # complex q: complex steps
     if m.on("inertia_lin"):
         J += linear_inertia(m, q)
     if m.on("inertia_quad"):
@@ -125,6 +125,12 @@ class Deformed:
     @cached_property
     def C(self) -> np.ndarray:
         return coupling_matrix(self.m, self.q)
+
+    def row(self, i: int) -> Deformed:
+        """The pieces of state i of a batch: those computed so far, as rows of the batch's."""
+        one = Deformed(self.m, self.q[i])
+        one.__dict__.update({k: v[i] for k, v in self.__dict__.items() if k in ("Sq", "J", "C")})
+        return one
 
 
 def rotational_force(m: Model, q, qd, w, tau, d: Deformed | None = None) -> np.ndarray:
@@ -171,6 +177,51 @@ def accelerations(m: Model, q, qd, w, tau, fext, d: Deformed | None = None):
     C = d.C
     wd = _solve(d.J - C @ np.swapaxes(C, -1, -2), fr - mv(C, ff))
     return wd, ff - np.einsum("...ks,...k->...s", C, wd)
+
+
+def modal_derivatives(m: Model, q: np.ndarray, qd: np.ndarray, w: np.ndarray, a: tuple[np.ndarray, np.ndarray],
+                      d: Deformed) -> tuple[np.ndarray, np.ndarray]:
+    """Exact derivatives of ``accelerations`` (no loads) at one state along every q_j, then every q'_j: (the
+    rows of w' (2 nf, 3), those of q'' (2 nf, nf)), row j the direction j; ``a``: the accelerations (w', q'')
+    at the state, ``d``: its Deformed pieces.
+
+    The forces F = (fr, ff) on the right above are polynomials in q and q' and the mass matrix M(q) is linear
+    and quadratic in q, so a direction e moves the accelerations ``a = M^-1 F`` by ``M^-1 (dF e - (dM e) a)``:
+    per direction the forces' terms with q (q') replaced by e_j in one factor at a time, and one solve with
+    the state's M for all of them; dM comes from I_TT's W1 Qf and J2 and from C."""
+    nf, eye, (wd, qdd) = m.nf, np.eye(m.nf), a
+    cols = sbar_columns(m)  # (nf, 3, 3, nf): Sbar e_j, the change of Sq = Sbar q along q_j
+    L = linear_inertia(m, eye) if m.on("inertia_lin") or m.on("cor1") else None  # W1 e_j
+    Q = quadratic_inertia(m, eye, q, Sr=d.Sq) if m.on("inertia_quad") or m.on("cor_quad") else None  # J2(e_j, q)
+    dJ = np.zeros((nf, 3, 3))  # along q_j
+    if m.on("inertia_lin"):
+        dJ += L
+    if m.on("inertia_quad"):
+        dJ += Q + quadratic_inertia(m, q, eye, Sr=cols)
+    fr_q, fr_qd = -cross(w, mv(dJ, w)), np.zeros((nf, 3))
+    ff_q, ff_qd = -np.diag(m.eigenvalues), -np.diag(m.damping)
+    if m.on("cor1"):
+        fr_qd -= mv(L, w)
+    if m.on("cor_quad"):
+        fr_q -= 2 * mv(quadratic_inertia(m, qd, eye, Sr=cols), w)
+        fr_qd -= 2 * mv(Q, w)
+    Cj = coupling_columns(m)  # (nf, 3, nf): C(e_j)
+    if m.on("cor_coupling"):
+        fr_q -= cross(w, Cj @ qd)
+        fr_qd -= cross(w, d.C.T)
+        ff_qd = ff_qd - 2 * np.einsum("k,kjs->js", w, m.W3k)
+    if m.on("cf2"):
+        ff_q = ff_q + (w @ w) * np.einsum("jmms->js", cols) - np.einsum("kl,jlks->js", np.outer(w, w), cols)
+    if m.on("geo_stiff"):
+        ff_q = ff_q - np.einsum("c,crj->jr", pair_weights(w), m.G)
+    r_w, r_f = np.concatenate([fr_q - mv(dJ, wd), fr_qd]), np.concatenate([ff_q, ff_qd])
+    if not m.on("coupling"):
+        return np.linalg.solve(d.J, r_w.T).T, r_f
+    r_w[:nf] -= Cj @ qdd
+    r_f[:nf] -= np.einsum("jks,k->js", Cj, wd)
+    C = d.C
+    dwd = np.linalg.solve(d.J - C @ C.T, (r_w - r_f @ C.T).T).T
+    return dwd, r_f - dwd @ C
 
 
 def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:

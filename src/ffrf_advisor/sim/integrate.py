@@ -135,12 +135,12 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
                failed=code != 0, t_fail=done * h if code else None, reason=REASONS.get(code, ""), step=h)
 
 
-COMPILED = ("rhs", "rk4", "dop853", "midpoint", "jacobian")
+COMPILED = ("rhs", "rk4", "dop853", "midpoint")
 
 
 def compile_ahead(names) -> None:
-    """Compile, or load from numba's cache, the compiled code ``names`` (of COMPILED; "jacobian": the
-    linearisation's, sim.linearise) for the argument types the runs pass, without running it. The integrators
+    """Compile, or load from numba's cache, the compiled code ``names`` (of COMPILED) for the argument types the
+    runs pass, without running it. The integrators
     call the right-hand side by its address, so they compile without it: separate processes can compile them
     side by side (the tests' workers do, tests/conftest.py)."""
     from numba import types as t
@@ -150,8 +150,7 @@ def compile_ahead(names) -> None:
     ahead = {"rhs": kernels.rhs_address,
              "rk4": lambda: kernels.rk4_loop.compile((i8, F1, f8, i8, i8, t.boolean, F2, M)),
              "dop853": lambda: dop853.integrate_dop853.compile((i8, F1, f8, f8, F1, F1, i8, F2, M, F1, F1)),
-             "midpoint": lambda: midpoint.midpoint_loop.compile((i8, F1, f8, i8, i8, F2, M, F1, F1)),
-             "jacobian": lambda: kernels.jacobian_into.compile((i8, F1, F1, F2, M))}
+             "midpoint": lambda: midpoint.midpoint_loop.compile((i8, F1, f8, i8, i8, F2, M, F1, F1))}
     for name in names:
         ahead[name]()
 

@@ -437,26 +437,6 @@ def rhs_loaded(rhs, t, y, out, model, prog, fext, scratch):
     call_rhs(rhs, y, out, model, tau, fext, prog[8] != 0.0, w, wd)
 
 
-@jit
-def jacobian_into(rhs, y, h, J, model):
-    """The central-difference Jacobian of the rates of (w, q, q') (the entries after the quaternion, which does
-    not enter them) of a free body without loads at the state y, with linearise.jacobian's steps ``h``:
-    ``J[i, j] = (f(y + h_j e_{4+j}) - f(y - h_j e_{4+j}))_{4+i} / (2 h_j)``; ``rhs``: rhs_into's address
-    (``rhs_address``)."""
-    n = y.shape[0]
-    m = n - 4
-    zero3, zf = np.zeros(3), np.zeros((n - N_ROT) // 2)
-    x, up, down = y.copy(), np.empty(n), np.empty(n)
-    for j in range(m):
-        x[4 + j] = y[4 + j] + h[j]
-        call_rhs(rhs, x, up, model, zero3, zf, FREE[0], zero3, zero3)
-        x[4 + j] = y[4 + j] - h[j]
-        call_rhs(rhs, x, down, model, zero3, zf, FREE[0], zero3, zero3)
-        x[4 + j] = y[4 + j]
-        for i in range(m):
-            J[i, j] = (up[4 + i] - down[4 + i]) / (2.0 * h[j])
-
-
 @inline
 def _rotate_by(p, theta, out):
     """out[0:4] = p[0:4] * exp(theta): the body turned by the rotation vector theta (body frame); out may be p."""

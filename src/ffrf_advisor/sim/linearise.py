@@ -6,28 +6,30 @@ equilibrium; the Jacobian of the term set's right-hand side in the
 coordinates ``(w, q, q')`` (the orientation does not enter the dynamics of a
 free body) has eigenvalues ``mu``; each pair ``+-i omega`` is a frequency
 ``omega / 2 pi``, and an eigenvalue with a positive real part means the
-equilibrium is unstable (the term set's own stability limit). The Jacobian
-is taken by central differences of the plain-numpy right-hand side with
-steps ``1e-6`` of each coordinate's scale (truncation error ``h^2``, far
-below the frequency differences reported); ``compiled_jacobian`` takes the
-same differences of the compiled right-hand side, for callers that load
-numba anyway.
+equilibrium is unstable (the term set's own stability limit). The
+Jacobian's columns of q and q' are exact (``equations.modal_derivatives``:
+the forces are polynomials in q and q'); those of w are central differences
+with steps ``1e-6`` of |w| (truncation ``h^2``, round-off about 1e-10 of a
+column). Central differences in q too, with steps of 1e-6 of q's natural
+size, moved a frequency by up to 8e-5 of itself where the centrifugal forces
+are large against the stiffness change (the carbody's full set at 3000 rad/s:
+eps times those forces over the step; 5e-10 now, tests/test_jacobian.py).
 
 Where the Jacobian decouples, its eigenproblem is solved block by block
 (``eigen``): a symmetric body's bending in two planes, its torsion and its
 axial modes are independent at some spins, and the dense eigensolver's work
 grows with the cube of the size (the 100-mode bar's reference at 300 rad/s,
 blocks of 102, 100 and 1 instead of 203: 11 ms instead of 17; its 2 x 2
-blocks about another axis: 7 ms instead of 28). Where a coupling is exactly
-zero the differences leave round-off (1e-13 of the largest entry and less
-on the zoo's bodies), so blocks are found in the balanced Jacobian
-``D^-1 J D`` (D: the difference steps, a similarity) among the entries
-above SPLIT of its largest. What lies between blocks is dropped only while
-its norm stays below DROPPED of that entry: the eigenvalues are then exact
-for a Jacobian that close to the differences' (they move by at most that
-times their condition, Bauer-Fike), which is within the differences' own
-round-off (eps over the 1e-6 steps, about 2e-10); else the whole matrix is
-solved, as where nothing decouples. A block of modes alone whose velocity
+blocks about another axis: 7 ms instead of 28). Where a coupling vanishes
+the Jacobian still holds round-off (the invariants' own, the w columns'
+differences: 1e-13 of the largest entry and less on the zoo's bodies), so
+blocks are found in the balanced Jacobian ``D^-1 J D`` (D: the difference
+steps, a similarity) among the entries above SPLIT of its largest. What lies
+between blocks is dropped only while its norm stays below DROPPED of that
+entry: the eigenvalues are then exact for a Jacobian that close (they move by
+at most that times their condition, Bauer-Fike), which is within the
+Jacobian's own round-off (its w columns': eps over the 1e-6 steps, about
+2e-10); else the whole matrix is solved, as where nothing decouples. A block of modes alone whose velocity
 coupling vanishes (a bar's modes bending in one plane) is ``[[0, I], [A, 0]]``
 in (q, q'): it is solved as second order, from the eigenproblem of A, half
 its size (``mu = +-sqrt(lambda)``; about a fifth of the work), the velocity
@@ -36,7 +38,6 @@ coupling dropped counting against the same DROPPED.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -107,58 +108,22 @@ def _rates(model: Model, x: np.ndarray, d: eq.Deformed | None = None) -> np.ndar
 
 
 def jacobian(model: Model, x: np.ndarray) -> np.ndarray:
-    """Central-difference Jacobian of the rates of (w, q, q') at x, all columns in one batched evaluation."""
-    h = _difference_steps(model, x)
-    step = np.diag(h)
-    states = np.vstack([x + step, x - step])  # one batch: half the numpy calls
-    q = slice(3, 3 + model.nf)
-    plus, minus = np.split(_rates(model, states, _Stepped(model, states[:, q], x[q], h[q])), 2)
-    return ((plus - minus) / (2 * h)[:, None]).T
-
-
-class _Stepped(eq.Deformed):
-    """The Deformed pieces of ``jacobian``'s states (x + h_j e_j, then x - h_j e_j; ``q``: their q, ``q0``:
-    x's, ``hq``: the steps of q). ``Sq = Sbar q`` and ``C = Qf^T W3`` are linear in q: a state's is the one at
-    x plus or minus h_j times the invariant's column j where it steps q_j, else the one at x, made from the
-    columns instead of a product per state (the 100-mode bar's reference: 8 ms -> 4 ms a Jacobian). They
-    differ from the products by rounding (eps of the piece at x), as two orders of the products would."""
-
-    def __init__(self, m: Model, q: np.ndarray, q0: np.ndarray, hq: np.ndarray):
-        super().__init__(m, q)
-        self.q0, self.hq = q0, hq
-
-    def _stepped(self, at_x: np.ndarray, columns: np.ndarray) -> np.ndarray:
-        """``at_x`` for every state, ``+- hq_j columns[j]`` added where the state steps q_j."""
-        n, nf = len(self.q) // 2, len(self.hq)
-        out = np.broadcast_to(at_x, (2 * n, *at_x.shape)).copy()
-        step = columns * self.hq.reshape(-1, *[1] * (columns.ndim - 1))
-        out[3:3 + nf] += step
-        out[n + 3:n + 3 + nf] -= step
-        return out
-
-    @cached_property
-    def Sq(self) -> np.ndarray:
-        return self._stepped(eq.sbar_times(self.m, self.q0), eq.sbar_columns(self.m))
-
-    @cached_property
-    def C(self) -> np.ndarray:
-        return self._stepped(eq.coupling_matrix(self.m, self.q0), eq.coupling_columns(self.m))
-
-
-def compiled_jacobian(model: Model):
-    """``jacobian`` of this model by the compiled right-hand side (sim.kernels.jacobian_into): the same
-    differences and steps in one compiled loop, about a tenth of the batched numpy evaluation at 16 modes. For
-    callers that load numba anyway (verify's Campbell study); the advice keeps the plain-numpy one."""
-    from . import kernels
-    from .integrate import compiled_args
-    address, compiled = compiled_args(model)
-
-    def jac(_, x: np.ndarray) -> np.ndarray:
-        J = np.empty((len(x), len(x)))
-        y = np.concatenate([(1.0, 0.0, 0.0, 0.0), x])
-        kernels.jacobian_into(address, y, _difference_steps(model, x), J, compiled)
-        return J
-    return jac
+    """Jacobian of the rates of (w, q, q') at x: the columns of q and q' exact (equations.modal_derivatives),
+    those of w central differences (steps ``_difference_steps``), x and the six states in one batch."""
+    nf, h = model.nf, _difference_steps(model, x)[:3]
+    steps = np.zeros((7, len(x)))
+    steps[:3, :3], steps[3:6, :3] = np.diag(h), -np.diag(h)
+    states = x + steps
+    w, q, qd = states[:, :3], states[:, 3:3 + nf], states[:, 3 + nf:]
+    d = eq.Deformed(model, q)
+    wd, qdd = eq.accelerations(model, q, qd, w, np.zeros(3), np.zeros(nf), d)
+    rates = np.concatenate([wd, qd, qdd], axis=-1)
+    dwd, dqdd = eq.modal_derivatives(model, x[3:3 + nf], x[3 + nf:], x[:3], (wd[6], qdd[6]), d.row(6))
+    J = np.zeros((len(x), len(x)))
+    J[:, :3] = ((rates[:3] - rates[3:6]) / (2 * h)[:, None]).T
+    J[:3, 3:], J[3 + nf:, 3:] = dwd.T, dqdd.T
+    J[3:3 + nf, 3 + nf:] = np.eye(nf)  # the rates of q are q'
+    return J
 
 
 def _difference_steps(model: Model, x: np.ndarray) -> np.ndarray:
@@ -187,11 +152,10 @@ def modal_spectrum(model: Model, axis, s: float) -> tuple[np.ndarray, np.ndarray
     return lin.frequencies, shapes, lin.q
 
 
-def _linearised(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[Linearisation, np.ndarray, np.ndarray]:
+def _linearised(model: Model, axis, s: float, q=None) -> tuple[Linearisation, np.ndarray, np.ndarray]:
     """(the linearisation, the q parts of its modes' eigenvectors (nf, n) in ascending frequency, all the
-    eigenvectors as columns of (w, q, q')); ``jac``: ``jacobian`` or a ``compiled_jacobian``; ``q``: the static
-    deflection at the spin where the caller has it."""
-    a, q, J, steps = equilibrium(model, axis, s, jac, q)
+    eigenvectors as columns of (w, q, q')); ``q``: the static deflection at the spin where the caller has it."""
+    a, q, J, steps = equilibrium(model, axis, s, q)
     mu, V = eigen(J, steps)
     top = np.abs(mu).max() if mu.size else 1.0
     osc = np.flatnonzero(mu.imag > 1e-9 * top)
@@ -205,16 +169,16 @@ def _linearised(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[Lin
 def unstable(model: Model, axis, s: float, q=None) -> bool:
     """``linearise(model, axis, s).unstable`` from the eigenvalues alone (no eigenvectors: about a third less
     work at 100 modes); ``q``: the static deflection at the spin where the caller has it."""
-    return _grows(eigen(*equilibrium(model, axis, s, jacobian, q)[2:], vectors=False))
+    return _grows(eigen(*equilibrium(model, axis, s, q)[2:], vectors=False))
 
 
-def equilibrium(model: Model, axis, s: float, jac=jacobian, q=None) -> tuple[np.ndarray, ...]:
-    """(the unit axis, the static deflection, the Jacobian ``jac`` of the rates of (w, q, q') there, its
+def equilibrium(model: Model, axis, s: float, q=None) -> tuple[np.ndarray, ...]:
+    """(the unit axis, the static deflection, the ``jacobian`` of the rates of (w, q, q') there, its
     difference steps) of steady spin s about axis; ``q``: the deflection where the caller has it."""
     a, w = spin_vector(axis, s)
     q = static_deflection(model, w) if q is None else q
     x = np.concatenate([w, q, np.zeros(model.nf)])
-    return a, q, jac(model, x), _difference_steps(model, x)
+    return a, q, jacobian(model, x), _difference_steps(model, x)
 
 
 def eigen(J: np.ndarray, steps: np.ndarray, vectors: bool = True):
@@ -231,7 +195,7 @@ def eigen(J: np.ndarray, steps: np.ndarray, vectors: bool = True):
     whole, solved = [idx for idx, half in blocks if not half], []
     for size in sorted({len(idx) for idx, half in blocks if half}):
         q = np.array([idx for idx, half in blocks if half and len(idx) == size])
-        states, mu, V, kept = _second_order(J[(q + nf)[:, :, None], q[:, None, :]], q, nf, solve)
+        states, mu, V, kept = _second_order(J[(q + nf)[:, :, None], q[:, None, :]], q, nf, vectors)
         solved.append((states[kept], mu[kept], None if V is None else V[kept]))
         whole += list(states[~kept])
     for size in sorted({len(idx) for idx in whole}):
@@ -255,21 +219,21 @@ def _assembled(n: int, solved: list[tuple], vectors: bool):
     return (mu, V) if vectors else mu
 
 
-def _second_order(A: np.ndarray, q: np.ndarray, nf: int, solve) -> tuple[np.ndarray, ...]:
+def _second_order(A: np.ndarray, q: np.ndarray, nf: int, vectors: bool) -> tuple[np.ndarray, ...]:
     """Stacked blocks of modes (``q``: their indices) where J = [[0, I], [A, 0]] on (q, q'): from the eigenpairs
     (lambda, w) of A those of J, ``mu = +-sqrt(lambda)`` with the columns ``(w, mu w)`` of unit length, half
     the size (about a fifth of the work). The eigensolver's backward error on A, eps max|lambda|, moves each
     lambda by that over |lambda| relative: a block is ``kept`` where that stays within DROPPED (the
     differences' own round-off), else it is to be solved whole (a wide spread of frequencies: from 1 to 1000 the
     half problem's lowest one is 4e-11 off, the whole one's 4e-14). (state indices, mu, V or None, kept)."""
-    found = solve(A)
-    lam = (found[0] if solve is np.linalg.eig else found).astype(complex)
+    found = np.linalg.eig(A) if vectors else (np.linalg.eigvals(A), None)
+    lam = found[0].astype(complex)
     size = np.abs(lam)
     kept = np.finfo(float).eps * size.max(axis=-1) <= DROPPED * size.min(axis=-1)
     root = np.sqrt(lam)
     mu = np.concatenate([root, -root], axis=-1)
     states = np.concatenate([q, q + nf], axis=-1)
-    if solve is not np.linalg.eig:
+    if not vectors:
         return states, mu, None, kept
     W = np.concatenate([found[1], found[1]], axis=-1) / np.sqrt(1 + np.abs(mu) ** 2)[:, None, :]
     return states, mu, np.concatenate([W, mu[:, None, :] * W], axis=1), kept
@@ -367,7 +331,7 @@ class Campbell(NamedTuple):
     gaps: np.ndarray
 
 
-def campbell(model: Model, axis, speeds, jac=jacobian) -> Campbell:
+def campbell(model: Model, axis, speeds) -> Campbell:
     """The flexible frequencies of the term set at steady spin about ``axis`` at each of ``speeds`` (ascending), as
     branches: column p starts as mode p (its shape at rest is the unit vector e_p) and is followed from speed to
     speed by its mode shape, the q part of the eigenvector (modal coordinates are mass-normalised, so the plain
@@ -381,7 +345,7 @@ def campbell(model: Model, axis, speeds, jac=jacobian) -> Campbell:
     gaps = np.full(len(speeds), "", dtype=object)
     last, last_f = np.eye(nf, dtype=complex), np.sqrt(np.abs(model.eigenvalues)) / (2 * np.pi)
     for i, s in enumerate(speeds):
-        freqs, shapes, gaps[i] = _campbell_point(model, axis, s, jac)
+        freqs, shapes, gaps[i] = _campbell_point(model, axis, s)
         if gaps[i] or not len(freqs):
             continue
         A = last / np.linalg.norm(last, axis=0)
@@ -412,7 +376,7 @@ def campbell_speeds(k: int, speed: float, s_crits, points: int, margin: float) -
     return np.linspace(0.0, margin * max([speed, 1e-9, *crit]), points)
 
 
-def _campbell_point(model: Model, axis, s: float, jac) -> tuple[np.ndarray, np.ndarray, str]:
+def _campbell_point(model: Model, axis, s: float) -> tuple[np.ndarray, np.ndarray, str]:
     """(frequencies, shapes (nf, n), gap) at one speed of ``campbell``; gap "singular" or "unstable" (then the
     frequencies are not to be drawn) or ""."""
     a, w = spin_vector(axis, s)
@@ -423,7 +387,7 @@ def _campbell_point(model: Model, axis, s: float, jac) -> tuple[np.ndarray, np.n
         return *none, "singular"
     if lam[0] < 0:  # past the set's own s_crit (theory 9)
         return *none, "unstable"
-    lin, shapes, V = _linearised(model, a, s, jac, np.linalg.solve(K, f0))
+    lin, shapes, V = _linearised(model, a, s, np.linalg.solve(K, f0))
     mu = lin.eigenvalues
     growing = (mu.real > UNSTABLE * np.abs(mu).max()) & (mu.real > GROWTH * np.abs(mu.imag))
     if np.any(_modal_share(model, V[:, growing]) >= 0.5):  # the modes' own: not the rigid tumbling (middle axis)

@@ -15,7 +15,7 @@ from ..pool import beside
 from ..response import frequency_change
 from ..sim.equations import energy
 from ..sim.integrate import COMPILED, compile_beside
-from ..sim.linearise import campbell, campbell_speeds, compiled_jacobian
+from ..sim.linearise import campbell, campbell_speeds
 from ..sim.model import build_model
 from ..terms import FULL, LEVEL_SETS
 from ..units import TIME
@@ -52,9 +52,8 @@ def campbell_data(a: Analysis, speed: float, axis: int | None = None) -> dict:
     branches = {}  # per (terms, axis): sets with the same terms (the advised set and IV, say) computed once
     for terms in dict.fromkeys(sets.values()):
         model = build_model(a.body, terms)
-        jac = compiled_jacobian(model)  # verify runs the compiled simulator anyway
         for k in range(3):
-            branches[terms, k] = campbell(model, np.eye(3)[k], speeds[k], jac)
+            branches[terms, k] = campbell(model, np.eye(3)[k], speeds[k])
     by_axis = {k: {label: branches[terms, k].frequencies for label, terms in sets.items()} for k in range(3)}
     gaps = {k: {label: branches[terms, k].gaps.tolist() for label, terms in sets.items()} for k in range(3)}
     axis = deformation_axis(a) if axis is None else axis

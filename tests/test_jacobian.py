@@ -66,3 +66,22 @@ def test_frequencies_at_high_spin_are_those_of_the_exact_jacobian():
     osc = mu0[np.abs(mu0.imag) > 1e-4 * np.abs(mu0).max()]
     assert len(osc) >= 8  # past its critical speeds most are real there; ten oscillate
     assert np.max(np.abs(osc[:, None] - mu[None, :]).min(axis=1) / np.abs(osc)) < 1e-8
+
+
+@pytest.mark.parametrize("name", ["beam", "carbody", "genstruct1"])
+def test_the_static_deflection_balances_the_flexible_forces(name):
+    """linearise.static_deflection (K from equations.stiffness_columns, the forces being affine in q) leaves
+    flexible_force at 1e-11 of its terms (|Omega^2 q| and the centrifugal load) for every level's set and the
+    full set with geo_stiff, at 300 and 3000 rad/s about each axis (a solve's backward error: about 1e-15)."""
+    from ffrf_advisor.sim.equations import flexible_force
+    body = read_body(DIR / f"{name}.ffrf.h5")
+    zero = np.zeros(body.nf)
+    for terms in (*LEVEL_SETS.values(), ALL):
+        if "geo_stiff" in terms and body.geometric is None:
+            continue
+        model = build_model(body, terms)
+        for s in (300.0, 3000.0):
+            for w in s * np.eye(3):
+                q = lin.static_deflection(model, w)
+                scale = np.abs(model.eigenvalues * q).max() + np.abs(flexible_force(model, zero, zero, w, zero)).max()
+                assert np.abs(flexible_force(model, q, zero, w, zero)).max() <= 1e-11 * scale, (terms, s)

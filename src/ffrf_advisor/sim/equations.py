@@ -199,7 +199,7 @@ def modal_derivatives(m: Model, q: np.ndarray, qd: np.ndarray, w: np.ndarray, a:
     if m.on("inertia_quad"):
         dJ += Q + quadratic_inertia(m, q, eye, Sr=cols)
     fr_q, fr_qd = -cross(w, mv(dJ, w)), np.zeros((nf, 3))
-    ff_q, ff_qd = -np.diag(m.eigenvalues), -np.diag(m.damping)
+    ff_q, ff_qd = stiffness_columns(m, w), -np.diag(m.damping)
     if m.on("cor1"):
         fr_qd -= mv(L, w)
     if m.on("cor_quad"):
@@ -210,10 +210,6 @@ def modal_derivatives(m: Model, q: np.ndarray, qd: np.ndarray, w: np.ndarray, a:
         fr_q -= cross(w, Cj @ qd)
         fr_qd -= cross(w, d.C.T)
         ff_qd = ff_qd - 2 * np.einsum("k,kjs->js", w, m.W3k)
-    if m.on("cf2"):
-        ff_q = ff_q + (w @ w) * np.einsum("jmms->js", cols) - np.einsum("kl,jlks->js", np.outer(w, w), cols)
-    if m.on("geo_stiff"):
-        ff_q = ff_q - np.einsum("c,crj->jr", pair_weights(w), m.G)
     r_w, r_f = np.concatenate([fr_q - mv(dJ, wd), fr_qd]), np.concatenate([ff_q, ff_qd])
     if not m.on("coupling"):
         return np.linalg.solve(d.J, r_w.T).T, r_f
@@ -222,6 +218,18 @@ def modal_derivatives(m: Model, q: np.ndarray, qd: np.ndarray, w: np.ndarray, a:
     C = d.C
     dwd = np.linalg.solve(d.J - C @ C.T, (r_w - r_f @ C.T).T).T
     return dwd, r_f - dwd @ C
+
+
+def stiffness_columns(m: Model, w: np.ndarray) -> np.ndarray:
+    """(nf, nf): the change of ``flexible_force`` at spin w along each q_j (row j), exact: it is affine in q,
+    ``-Omega^2 q`` and the q terms of cf2 and ``G(w) q`` (with the sign they carry on the right above)."""
+    ff_q = -np.diag(m.eigenvalues)
+    if m.on("cf2"):
+        cols = sbar_columns(m)
+        ff_q = ff_q + (w @ w) * np.einsum("jmms->js", cols) - np.einsum("kl,jlks->js", np.outer(w, w), cols)
+    if m.on("geo_stiff"):
+        ff_q = ff_q - np.einsum("c,crj->jr", pair_weights(w), m.G)
+    return ff_q
 
 
 def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -89,13 +89,10 @@ def spin_vector(axis, s: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _static_stiffness(model: Model, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(K, f0): the flexible force at spin w is ``f0 - K q`` (K: Omega^2 - s^2 Kc + s^2 G for the full set)."""
-    nf, zero = model.nf, np.zeros(model.nf)
-    q = np.vstack([zero, np.eye(nf)])  # q = 0, then q = e_j: one batched evaluation
-    d = eq.Deformed(model, q)
-    d.Sq = np.concatenate([np.zeros((1, *model.Sbar.shape[:3])), eq.sbar_columns(model)])  # Sbar q, exactly
-    f = eq.flexible_force(model, q, np.zeros_like(q), w, zero, d)
-    return -(f[1:] - f[0]).T, f[0]  # a column of K per q = e_j
+    """(K, f0): the flexible force at spin w and q' = 0 is ``f0 - K q`` (affine in q: K from
+    equations.stiffness_columns; Omega^2 - s^2 Kc + s^2 G for the full set)."""
+    zero = np.zeros(model.nf)
+    return -eq.stiffness_columns(model, w).T, eq.flexible_force(model, zero, zero, w, zero)
 
 
 def _rates(model: Model, x: np.ndarray, d: eq.Deformed | None = None) -> np.ndarray:

@@ -29,11 +29,12 @@ between blocks is dropped only while its norm stays below DROPPED of that
 entry: the eigenvalues are then exact for a Jacobian that close (they move by
 at most that times their condition, Bauer-Fike), which is within the
 Jacobian's own round-off (its w columns': eps over the 1e-6 steps, about
-2e-10); else the whole matrix is solved, as where nothing decouples. A block of modes alone whose velocity
-coupling vanishes (a bar's modes bending in one plane) is ``[[0, I], [A, 0]]``
-in (q, q'): it is solved as second order, from the eigenproblem of A, half
-its size (``mu = +-sqrt(lambda)``; about a fifth of the work), the velocity
-coupling dropped counting against the same DROPPED.
+2e-10); else the whole matrix is solved, as where nothing decouples. A
+block of modes alone whose velocity coupling vanishes (a bar's modes bending
+in one plane) is ``[[0, I], [A, 0]]`` in (q, q'): it is solved as second
+order, from the eigenproblem of A, half its size (``mu = +-sqrt(lambda)``;
+about a fifth of the work), the velocity coupling dropped counting against
+the same DROPPED.
 """
 from __future__ import annotations
 
@@ -111,11 +112,10 @@ def jacobian(model: Model, x: np.ndarray) -> np.ndarray:
     steps = np.zeros((7, len(x)))
     steps[:3, :3], steps[3:6, :3] = np.diag(h), -np.diag(h)
     states = x + steps
-    w, q, qd = states[:, :3], states[:, 3:3 + nf], states[:, 3 + nf:]
-    d = eq.Deformed(model, q)
-    wd, qdd = eq.accelerations(model, q, qd, w, np.zeros(3), np.zeros(nf), d)
-    rates = np.concatenate([wd, qd, qdd], axis=-1)
-    dwd, dqdd = eq.modal_derivatives(model, x[3:3 + nf], x[3 + nf:], x[:3], (wd[6], qdd[6]), d.row(6))
+    d = eq.Deformed(model, states[:, 3:3 + nf])
+    rates = _rates(model, states, d)
+    at_x = rates[6, :3], rates[6, 3 + nf:]
+    dwd, dqdd = eq.modal_derivatives(model, x[3:3 + nf], x[3 + nf:], x[:3], at_x, d.row(6))
     J = np.zeros((len(x), len(x)))
     J[:, :3] = ((rates[:3] - rates[3:6]) / (2 * h)[:, None]).T
     J[:3, 3:], J[3 + nf:, 3:] = dwd.T, dqdd.T

@@ -140,9 +140,8 @@ COMPILED = ("rhs", "rk4", "dop853", "midpoint")
 
 def compile_ahead(names) -> None:
     """Compile, or load from numba's cache, the compiled code ``names`` (of COMPILED) for the argument types the
-    runs pass, without running it. The integrators
-    call the right-hand side by its address, so they compile without it: separate processes can compile them
-    side by side (the tests' workers do, tests/conftest.py)."""
+    runs pass, without running it. The integrators call the right-hand side by its address, so they compile
+    without it: separate processes can compile them side by side (the tests' workers do, tests/conftest.py)."""
     from numba import types as t
 
     from . import dop853, kernels, midpoint

@@ -105,10 +105,11 @@ def _rates(model: Model, x: np.ndarray, d: eq.Deformed | None = None) -> np.ndar
     return np.concatenate([wd, qd, qdd], axis=-1)
 
 
-def jacobian(model: Model, x: np.ndarray) -> np.ndarray:
+def jacobian(model: Model, x: np.ndarray, steps: np.ndarray | None = None) -> np.ndarray:
     """Jacobian of the rates of (w, q, q') at x: the columns of q and q' exact (equations.modal_derivatives),
-    those of w central differences (steps ``_difference_steps``), x and the six states in one batch."""
-    nf, h = model.nf, _difference_steps(model, x)[:3]
+    those of w central differences (``steps``: ``_difference_steps`` where the caller has them), x and the six
+    states in one batch."""
+    nf, h = model.nf, (_difference_steps(model, x) if steps is None else steps)[:3]
     steps = np.zeros((7, len(x)))
     steps[:3, :3], steps[3:6, :3] = np.diag(h), -np.diag(h)
     states = x + steps
@@ -175,7 +176,8 @@ def equilibrium(model: Model, axis, s: float, q=None) -> tuple[np.ndarray, ...]:
     a, w = spin_vector(axis, s)
     q = static_deflection(model, w) if q is None else q
     x = np.concatenate([w, q, np.zeros(model.nf)])
-    return a, q, jacobian(model, x), _difference_steps(model, x)
+    steps = _difference_steps(model, x)
+    return a, q, jacobian(model, x, steps), steps
 
 
 def eigen(J: np.ndarray, steps: np.ndarray, vectors: bool = True):

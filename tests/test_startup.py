@@ -140,3 +140,60 @@ def test_the_options_are_built_and_checked_without_the_analysis():
     assert values == "300.0 0.02"
     assert not set(loaded.split()) & {"ffrf_advisor.analysis", "ffrf_advisor.guidelines", "ffrf_advisor.predict",
                                       "ffrf_advisor.amplitudes", "ffrf_advisor.significance"}, loaded
+
+
+GC_PROBE = """
+import gc, runpy, sys
+from ffrf_advisor.io import guard
+real, seen = guard._forked, []
+guard._forked = lambda *a, **k: seen.append(gc.isenabled()) or real(*a, **k)
+sys.argv = ["ffrf-advisor", *sys.argv[1:]]
+try:
+    runpy.run_module("ffrf_advisor", run_name="__main__")
+except SystemExit:
+    pass
+print(*seen, gc.isenabled(), gc.get_freeze_count() > 0)
+"""
+
+
+def test_the_tool_starts_without_the_collector_and_collects_after_its_first_read(cached_beam):
+    """__main__: the cyclic garbage collector is off while the tool starts (up to the first reading child) and
+    on after it, with start-up's objects frozen out of its scans (io.atomic.resume_collector)."""
+    run = subprocess.run([sys.executable, "-c", GC_PROBE, "info", str(cached_beam)], capture_output=True,
+                         text=True, check=True)
+    assert run.stdout.splitlines()[-1].split() == ["False", "True", "True"]
+
+
+@pytest.mark.parametrize("paused", [True, False])
+def test_a_guarded_read_collects_in_the_child_and_after_it_in_the_parent(cached_beam, paused):
+    """io.atomic.forked_child: a read forked where the collector is off (the tool's start-up) freezes what
+    exists before the fork, the child collects (leaving the frozen objects' pages alone), and the parent
+    collects again after it; where it is on (the tool used as a library) nothing is frozen."""
+    import gc
+
+    from ffrf_advisor.io import guard
+    frozen = gc.get_freeze_count()
+    if paused:
+        gc.disable()
+    try:
+        on, in_child = guard.run(cached_beam, "lib", lambda: (gc.isenabled(), gc.get_freeze_count()))
+        assert on and (in_child > frozen) == paused
+        assert gc.isenabled() and (gc.get_freeze_count() > frozen) == paused
+    finally:
+        gc.unfreeze()
+        gc.enable()
+
+
+def test_a_pool_started_before_any_read_collects_in_its_workers_and_parent():
+    """pool.local_pool: the workers of a command that has read nothing yet (gate --jobs) and the tool itself
+    collect again (io.atomic.resume_collector)."""
+    import gc
+
+    from ffrf_advisor.pool import local_pool
+    gc.disable()
+    try:
+        with local_pool(1) as pool:
+            assert pool.submit(gc.isenabled).result() and gc.isenabled()
+    finally:
+        gc.unfreeze()
+        gc.enable()

@@ -6,6 +6,7 @@ benchmarks/bench_startup.py times the same runs.
 """
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -142,26 +143,43 @@ def test_the_options_are_built_and_checked_without_the_analysis():
                                       "ffrf_advisor.amplitudes", "ffrf_advisor.significance"}, loaded
 
 
-GC_PROBE = """
-import gc, runpy, sys
+FORK_PROBE = """
+import gc, json, runpy, sys
 from ffrf_advisor.io import guard
 real, seen = guard._forked, []
-guard._forked = lambda *a, **k: seen.append(gc.isenabled()) or real(*a, **k)
+guard._forked = lambda *a, **k: seen.append({"collecting": gc.isenabled(), "rich": "rich" in sys.modules,
+                                             "meanwhile": list(guard._MEANWHILE)}) or real(*a, **k)
 sys.argv = ["ffrf-advisor", *sys.argv[1:]]
 try:
     runpy.run_module("ffrf_advisor", run_name="__main__")
 except SystemExit:
     pass
-print(*seen, gc.isenabled(), gc.get_freeze_count() > 0)
+print(json.dumps({"forks": seen, "collecting": gc.isenabled(), "frozen": gc.get_freeze_count() > 0}))
 """
+
+
+def at_forks(*args: str) -> dict:
+    """What ``ffrf-advisor ARGS`` had done when it forked each child (the collector's state, rich imported, the
+    modules to import while the child reads) and the collector's state at the end."""
+    run = subprocess.run([sys.executable, "-c", FORK_PROBE, *args], capture_output=True, text=True, check=True)
+    return json.loads(run.stdout.splitlines()[-1])
 
 
 def test_the_tool_starts_without_the_collector_and_collects_after_its_first_read(cached_beam):
     """__main__: the cyclic garbage collector is off while the tool starts (up to the first reading child) and
     on after it, with start-up's objects frozen out of its scans (io.atomic.resume_collector)."""
-    run = subprocess.run([sys.executable, "-c", GC_PROBE, "info", str(cached_beam)], capture_output=True,
-                         text=True, check=True)
-    assert run.stdout.splitlines()[-1].split() == ["False", "True", "True"]
+    seen = at_forks("info", str(cached_beam))
+    assert [f["collecting"] for f in seen["forks"]] == [False] and seen["collecting"] and seen["frozen"]
+
+
+def test_a_one_body_gate_imports_its_report_while_the_body_is_read(cached_beam):
+    """cli.gate: one body shows no progress bar (no steps to show), so the console report and rich are imported
+    while the body is read (gate.run_gate's after_read), not before; --json needs neither."""
+    args = ("gate", str(cached_beam), "--speed", "300rad/s", "--max-level", "IV")
+    (fork,) = at_forks(*args)["forks"]
+    assert not fork["rich"] and "ffrf_advisor.report.console" in fork["meanwhile"]
+    (fork,) = at_forks(*args, "--json")["forks"]
+    assert not fork["rich"] and "ffrf_advisor.report.console" not in fork["meanwhile"]
 
 
 @pytest.mark.parametrize("paused", [True, False])

@@ -11,7 +11,7 @@ import sys
 import time
 import warnings
 from collections.abc import MutableMapping
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 from typing import Annotated, Optional, get_args, get_origin
 
@@ -336,8 +336,9 @@ def gate(bodies: list[Path] = typer.Argument(..., help="Body files."),
     if options.situation.w_op is None:
         raise FFRFError("gate: --speed: expected the operating speed (0 for a body at rest), --speed-range or "
                         "speed in the config; without one only the rules that hold at rest would be evaluated")
-    with step_bar(notes()) as progress:
-        results = run_gate([str(b) for b in bodies], options, max_level, jobs, args.mesh_options(), progress)
+    report = () if as_json else (f"{__package__}.report.console",)  # imported while the first body is read
+    with step_bar(notes()) if len(bodies) > 1 else nullcontext() as progress:  # one body: no steps to show
+        results = run_gate([str(b) for b in bodies], options, max_level, jobs, args.mesh_options(), progress, report)
     from .guidelines import operating_point
     from .report.console import gate_report
     from .report.json_out import SCHEMA_VERSION

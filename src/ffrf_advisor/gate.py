@@ -23,17 +23,19 @@ if TYPE_CHECKING:
 AFTER_READ = ("ffrf_advisor.analysis", "ffrf_advisor.report.json_out")
 
 
-def gate_one(path: str, options: Options, max_level: str, read_options: dict | None = None) -> dict:
-    """One body's gate record with its wall time; bad input becomes an 'error' entry instead of an exception."""
+def gate_one(path: str, options: Options, max_level: str, read_options: dict | None = None,
+             after_read: tuple[str, ...] = ()) -> dict:
+    """One body's gate record with its wall time; bad input becomes an 'error' entry instead of an exception.
+    ``after_read``: modules the caller needs after the run, imported with AFTER_READ while the body is read."""
     start = time.perf_counter()
-    record = _gate_record(path, options, max_level, read_options or {})
+    record = _gate_record(path, options, max_level, read_options or {}, AFTER_READ + after_read)
     return {**record, "time": time.perf_counter() - start}
 
 
-def _gate_record(path: str, options: Options, max_level: str, read_options: dict) -> dict:
+def _gate_record(path: str, options: Options, max_level: str, read_options: dict, after_read: tuple) -> dict:
     try:
         check_reader_options(path, read_options)
-        with importing_meanwhile(*(m for m in AFTER_READ if m not in sys.modules)):  # none: the file libraries
+        with importing_meanwhile(*(m for m in after_read if m not in sys.modules)):  # none: the file libraries
             body = read_body(path, load_fe="summary", **read_options)
         from .analysis import analyze
         from .report.json_out import analysis_json
@@ -55,15 +57,17 @@ CHUNK = 2  # bodies per hand-out: a pickled round trip (about 1 ms) per two bodi
 
 
 def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, read_options: dict | None = None,
-             progress: Callable[[str, int, int], None] | None = None) -> list[dict]:
+             progress: Callable[[str, int, int], None] | None = None, after_read: tuple[str, ...] = ()) -> list[dict]:
     """Each body's gate record (gate_one) in order, ``jobs`` processes handing out bodies ``CHUNK`` at a time;
-    ``progress(file, done, total)`` after each body when given."""
+    ``progress(file, done, total)`` after each body when given; ``after_read``: modules the caller needs after
+    the run (the report's), imported while the first body is read where it is read here (one job)."""
     results = []
     if jobs > 1:  # the workers fork with them imported
         for name in AFTER_READ:
             importlib.import_module(name)
+    args = (options, max_level, read_options, after_read if jobs == 1 else ())
     with mapper(jobs, chunksize=CHUNK) as map_:
-        for record in map_(gate_one, paths, *([x] * len(paths) for x in (options, max_level, read_options))):
+        for record in map_(gate_one, paths, *([x] * len(paths) for x in args)):
             results.append(record)
             if progress is not None:
                 progress(record["file"], len(results), len(paths))

@@ -6,15 +6,18 @@ benchmarks/bench_startup.py times the same runs.
 """
 from __future__ import annotations
 
+import gc
 import json
 import os
 import subprocess
 import sys
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 import typer
 
+from ffrf_advisor import collector
 from ffrf_advisor.cli import app
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -167,7 +170,7 @@ def at_forks(*args: str) -> dict:
 
 def test_the_tool_starts_without_the_collector_and_collects_after_its_first_read(cached_beam):
     """__main__: the cyclic garbage collector is off while the tool starts (up to the first reading child) and
-    on after it, with start-up's objects frozen out of its scans (io.atomic.resume_collector)."""
+    on after it, with start-up's objects frozen out of its scans (ffrf_advisor.collector)."""
     seen = at_forks("info", str(cached_beam))
     assert [f["collecting"] for f in seen["forks"]] == [False] and seen["collecting"] and seen["frozen"]
 
@@ -182,36 +185,40 @@ def test_a_one_body_gate_imports_its_report_while_the_body_is_read(cached_beam):
     assert not fork["rich"] and "ffrf_advisor.report.console" not in fork["meanwhile"]
 
 
-@pytest.mark.parametrize("paused", [True, False])
-def test_a_guarded_read_collects_in_the_child_and_after_it_in_the_parent(cached_beam, paused):
-    """io.atomic.forked_child: a read forked where the collector is off (the tool's start-up) freezes what
-    exists before the fork, the child collects (leaving the frozen objects' pages alone), and the parent
-    collects again after it; where it is on (the tool used as a library) nothing is frozen."""
-    import gc
-
-    from ffrf_advisor.io import guard
-    frozen = gc.get_freeze_count()
-    if paused:
+@contextmanager
+def collector_state(how: str):
+    """Within: the collector as the tool's start-up holds it ("paused", ffrf_advisor.collector), on ("on": the
+    package used as a library) or turned off by its user ("off"); then as it was, nothing left frozen."""
+    before = gc.isenabled()
+    if how == "paused":
+        collector.pause()
+    elif how == "off":
         gc.disable()
     try:
-        on, in_child = guard.run(cached_beam, "lib", lambda: (gc.isenabled(), gc.get_freeze_count()))
-        assert on and (in_child > frozen) == paused
-        assert gc.isenabled() and (gc.get_freeze_count() > frozen) == paused
+        yield
     finally:
+        collector.resume()
         gc.unfreeze()
-        gc.enable()
+        (gc.enable if before else gc.disable)()
+
+
+@pytest.mark.parametrize("how", ["paused", "on", "off"])
+def test_a_guarded_read_collects_in_the_child_and_after_it_in_the_parent(cached_beam, how):
+    """io.atomic.forked_child: a read forked where the tool's start-up holds the collector off freezes what
+    exists before the fork, the child collects (leaving the frozen objects' pages alone), and the parent
+    collects again after it; where it is on, or off by the choice of the program using the package, it stays
+    so and nothing is frozen."""
+    from ffrf_advisor.io import guard
+    frozen = gc.get_freeze_count()
+    with collector_state(how):
+        on, in_child = guard.run(cached_beam, "lib", lambda: (gc.isenabled(), gc.get_freeze_count()))
+        assert on == (how != "off") and (in_child > frozen) == (how == "paused")
+        assert gc.isenabled() == (how != "off") and (gc.get_freeze_count() > frozen) == (how == "paused")
 
 
 def test_a_pool_started_before_any_read_collects_in_its_workers_and_parent():
     """pool.local_pool: the workers of a command that has read nothing yet (gate --jobs) and the tool itself
-    collect again (io.atomic.resume_collector)."""
-    import gc
-
+    collect again (ffrf_advisor.collector)."""
     from ffrf_advisor.pool import local_pool
-    gc.disable()
-    try:
-        with local_pool(1) as pool:
-            assert pool.submit(gc.isenabled).result() and gc.isenabled()
-    finally:
-        gc.unfreeze()
-        gc.enable()
+    with collector_state("paused"), local_pool(1) as pool:
+        assert pool.submit(gc.isenabled).result() and gc.isenabled()

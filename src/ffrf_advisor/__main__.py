@@ -2,18 +2,12 @@
 
 ``ffrf-advisor --version`` alone is answered here, before the CLI is built: typer introspects every
 command's parameters to build the group before it parses any option (about 40 ms), which the version
-line does not need.
-
-The tool starts with Python's cyclic garbage collector off: start-up makes tens of thousands of
-long-lived objects (modules, classes, functions) and no garbage, yet the collector scanned them over and
-over, in the parent and, touching their pages, in the reading child it forks. io.atomic.forked_child turns
-it on again once the first child is done (the body read), with start-up's objects frozen out of its scans:
-the pattern Python's gc documentation gives for processes that fork. analyze of the beam and of the
-100-mode bar took about 50 ms less (0.33 s against 0.38 s and 0.35 s against 0.40 s, minima of 15 runs).
+line does not need. The cyclic garbage collector stays off while the tool starts (collector).
 """
-import gc
 import os
 import sys
+
+from . import collector
 
 # OpenBLAS's idle worker threads spin for 2^n cycles before they sleep (n = 28 by default: about 0.1 s) after
 # each multithreaded BLAS call. The commands then run LAPACK on their own threads (the predicted errors' two
@@ -36,7 +30,7 @@ def main() -> None:
         print(version_line())
         return
     rest_idle_blas_workers()
-    gc.disable()  # while the tool starts (module docstring)
+    collector.pause()
     from .cli import app
     app(prog_name="ffrf-advisor")
 

@@ -6,7 +6,8 @@ import os
 from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
-from .io.atomic import WAKE_S, resume_collector
+from . import collector
+from .io.atomic import WAKE_S
 from .io.guard import die_with_parent
 
 if TYPE_CHECKING:
@@ -21,7 +22,7 @@ def local_pool(jobs: int) -> ProcessPoolExecutor:
     here, by the runs that use more than one job (about 20 ms of gate's and verify's start-up)."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
-    resume_collector()  # the workers inherit it on, with start-up's objects frozen out of their collections
+    collector.resume()  # the workers inherit it on, with start-up's objects frozen out of their collections
     return ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"), initializer=_worker,
                                initargs=(os.getpid(),))
 

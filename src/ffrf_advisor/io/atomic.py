@@ -9,7 +9,6 @@ once its process is gone.
 """
 from __future__ import annotations
 
-import gc
 import os
 import secrets
 import signal
@@ -19,6 +18,7 @@ from contextvars import ContextVar
 from pathlib import Path
 from typing import Iterator
 
+from .. import collector
 from ..errors import FFRFError
 
 
@@ -160,17 +160,14 @@ def terminate_cleanly():
 def forked_child() -> Iterator[int]:
     """``pid = os.fork()`` (in the child: 0) with SIGTERM held until the pid is noted, so the handler of
     ``terminate_cleanly`` kills and reaps it before it removes the temporaries; the pid is forgotten on the
-    way out (the caller reaps the child before, ``kill_and_reap``). Where the tool's start-up turned the
-    cyclic garbage collector off, what exists is frozen before the fork, the child collects, and the parent
-    collects again on the way out (``resume_collector``): the pattern of Python's gc documentation for
-    processes that fork."""
-    starting = not gc.isenabled()  # the tool's start-up (ffrf_advisor.__main__): the cyclic collector is off
-    if starting:
-        gc.freeze()  # the child's collections leave the parent's objects, and so their pages, alone
+    way out (the caller reaps the child before, ``kill_and_reap``). Where the tool's start-up holds the cyclic
+    garbage collector off (ffrf_advisor.collector), what exists is frozen before the fork; the child collects,
+    and the parent again on the way out."""
+    collector.before_fork()
     held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
     pid = os.fork()
     if pid == 0:
-        gc.enable()
+        collector.resume()
         signal.pthread_sigmask(signal.SIG_SETMASK, held)
         yield pid
         return
@@ -180,17 +177,7 @@ def forked_child() -> Iterator[int]:
         yield pid
     finally:
         _CHILDREN.discard(pid)
-        if starting:
-            resume_collector()
-
-
-def resume_collector() -> None:
-    """The cyclic garbage collector on again where the tool's start-up turned it off (ffrf_advisor.__main__):
-    after its first child (``forked_child``), or before work that forks none; what exists then is frozen out of
-    its scans: the modules, classes and functions of start-up, which are never garbage."""
-    if not gc.isenabled():
-        gc.freeze()
-        gc.enable()
+        collector.resume()
 
 
 def kill_and_reap(pid: int) -> None:

@@ -35,8 +35,9 @@ import sys
 import time
 from contextlib import contextmanager
 
+from .. import collector
 from ..errors import BodyFileError, FFRFError
-from .atomic import WAKE_S, forked_child, kill_and_reap, resume_collector
+from .atomic import WAKE_S, forked_child, kill_and_reap
 from .limits import ENV, human, max_bytes
 
 BASE_SECONDS = 30.0  # a valid file reads in well under this ...
@@ -57,7 +58,7 @@ def run(path, what: str, fn, *args, extra_bytes: int = 0):
     of other files the child reads, extends its deadline.
     """
     if not FORK:
-        resume_collector()
+        collector.resume()  # the tool's start-up is over (ffrf_advisor.collector)
         return fn(*args)
     seconds, limit = deadline_seconds(path, extra_bytes), max_bytes()  # a bad limit is the parent's one-line error
     try:

@@ -54,8 +54,8 @@ def _assert_kernels_match_reference(model, rng):
 
 @pytest.fixture(params=["tall", "strips"])
 def layout(request, monkeypatch):
-    """Both storages of the Sbar blocks (sim.model): tall below TALL_MAX modes, strips above."""
-    monkeypatch.setattr(model_module, "TALL_MAX", 10**6 if request.param == "tall" else 0)
+    """Both storages of the Sbar blocks (sim.model): tall up to tall_max() modes, strips above."""
+    monkeypatch.setattr(model_module, "tall_max", lambda: 10**6 if request.param == "tall" else 0)
     return request.param
 
 
@@ -173,3 +173,23 @@ def test_rk4_lie_stages_allocate_nothing(block37):
         assert allocations(1) == allocations(50)
     finally:
         nrt.memsys_disable_stats()
+
+
+@pytest.mark.parametrize("size, level2, expected", [("1024K", "Unified", 66), ("2M", "Data", 93), ("256K", "Unified", 48),
+                                                    ("512K", "Instruction", 48), (None, None, 48)])
+def test_the_tall_storage_reaches_as_far_as_the_l2_cache_holds_it(tmp_path, monkeypatch, size, level2, expected):
+    """sim.model.tall_max from Linux's sysfs description of the caches: tall while its 72 nf^2 bytes take at most
+    TALL_L2_SHARE of the L2 (data or unified) cache, never below TALL_MAX; an instruction cache, or no
+    description, leaves TALL_MAX."""
+    caches = [("1", "Data", "32K"), ("1", "Instruction", "32K")] + ([("2", level2, size)] if size else [])
+    for k, (level, kind, text) in enumerate(caches):
+        index = tmp_path / f"index{k}"
+        index.mkdir()
+        for name, value in (("level", level), ("type", kind), ("size", text)):
+            (index / name).write_text(value + "\n")
+    read = model_module.l2_bytes.__wrapped__  # uncached, reading tmp_path
+    monkeypatch.setattr(model_module, "l2_bytes", lambda: read(tmp_path))
+    assert model_module.tall_max() == expected
+    if expected > model_module.TALL_MAX:  # the largest nf whose tall storage takes at most the share
+        share = model_module.TALL_L2_SHARE * read(tmp_path)
+        assert 72 * expected**2 <= share < 72 * (expected + 1) ** 2

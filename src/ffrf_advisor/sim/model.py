@@ -17,17 +17,19 @@ symmetric diagonal blocks ``Sbar[k, k]`` (``diag``) and one block of each
 off-diagonal pair, ``off[k] = Sbar[a, b]`` for the cyclic ``(k, a, b)``
 (``Sbar[b, a] = Sbar[a, b]^T``), whose skew part is ``W3k[k]``; each
 stored in strips of STRIP rows (``strips``), so that one pass over a
-strip gives both a block's product and its transpose's. Up to TALL_MAX
+strip gives both a block's product and its transpose's. Up to ``tall_max()``
 modes, where the strips' rows are too short to vectorise and all blocks
-fit in the L1/L2 cache anyway, the kernels take the nine products at once
+fit in the L2 cache anyway, the kernels take the nine products at once
 from ``tall`` instead: ``tall[t]`` holds column t of every block, so
 ``P.ravel() = sum_t tall[t] x[t]`` is nf contiguous multiply-adds of length
 9 nf (9 nf^2 numbers, read once for q and q' together).
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 
@@ -38,8 +40,9 @@ from ..terms import GROUPS, IDS, is_lagrangian, needed_invariants, ordered
 N_ROT = 7  # quaternion (4) and angular velocity (3) lead the state vector
 STRIP = 4  # rows per strip of the kernels' block storage (kernels._dot4_axpy reads four rows at once)
 WIDTH_STEP = 16  # strip widths in multiples of this where free: a vector loop body (4 x 4 doubles on AVX2)
-TALL_MAX = 48  # modes up to which the kernels use ``tall``: its 72 nf^2 bytes fit a 256 KiB L2 cache (on a 1 MiB
-              # L2 it was 0.63-0.78x the strips' time from 16 to 64 modes, 1.0x at 80, 1.13x at 100)
+TALL_MAX = 48  # modes up to which the kernels use ``tall`` at least: its 72 nf^2 bytes fit a 256 KiB L2 cache
+TALL_L2_SHARE = 0.3  # ... and beyond, while they take at most this share of the processor's L2 cache (``tall_max``)
+L2_SYSFS = Path("/sys/devices/system/cpu/cpu0/cache")  # Linux: index*/level, type, size of processor 0's caches
 MAX_DAMPING = 10.0  # modal damping ratios above make the modes stiff beyond any integrator's budget
 
 
@@ -70,10 +73,10 @@ class Model:
         """(diag, off, tall): Sbar as the compiled kernels read it (module docstring), built at first use (the
         plain-numpy equations, which the advice's linearisations evaluate, never read it). ``diag`` (3, ~nf^2 /
         2): strips of the upper halves of Sbar[k, k]; ``off`` (3, ~nf^2): strips of Sbar[a, b] for the cyclic
-        (k, a, b), of W3k / 2 with W3 alone; both (3, 0) up to TALL_MAX modes, where ``tall`` (nf, 9 nf) holds
+        (k, a, b), of W3k / 2 with W3 alone; both (3, 0) up to ``tall_max()`` modes, where ``tall`` (nf, 9 nf) holds
         the same blocks column by column (else (0, 0))."""
         blocks = product_blocks(self.Sbar, None if _carries(self.terms, "W2") else 0.5 * self.W3k)  # zeros without W3
-        if self.nf <= TALL_MAX:
+        if self.nf <= tall_max():
             return np.zeros((3, 0)), np.zeros((3, 0)), tall_blocks(*blocks)
         return *compact_blocks(*blocks), np.zeros((0, 0))
 
@@ -135,6 +138,29 @@ def product_blocks(Sbar: np.ndarray, skew: np.ndarray | None = None) -> tuple[np
 def compact_blocks(D: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(diag, off) of Model: the upper halves of D and the blocks B (``product_blocks``) in strips."""
     return np.stack([strips(d, upper=True) for d in D]), np.stack([strips(b, upper=False) for b in B])
+
+
+def tall_max() -> int:
+    """Modes up to which the kernels read ``tall``: TALL_MAX, or more where its 72 nf^2 bytes stay within
+    TALL_L2_SHARE of the L2 cache (66 modes on 1 MiB, 93 on 2 MiB). Full right-hand side, tall against strips,
+    both on 1 MiB L2: 0.60-0.82x from 32 to 64 modes, 0.75x at 72, 0.88x at 80, 0.83x at 100 on an Intel Xeon
+    (2026-11-27); 0.63-0.78x from 16 to 64, 1.0x at 80, 1.13x at 100 on an AMD EPYC (2026-11-25)."""
+    size = l2_bytes()
+    return TALL_MAX if size is None else max(TALL_MAX, int(np.sqrt(TALL_L2_SHARE * size / 72)))
+
+
+@functools.cache
+def l2_bytes(root: Path = L2_SYSFS) -> int | None:
+    """The L2 (data or unified) cache of processor 0 in bytes as Linux's sysfs gives it ("1024K"); None where
+    it says nothing readable (another system)."""
+    try:
+        for index in sorted(root.glob("index*")):
+            if (index / "level").read_text().strip() == "2" and (index / "type").read_text().strip() != "Instruction":
+                text = (index / "size").read_text().strip().upper()
+                return int(text.rstrip("KMG")) * {"K": 2**10, "M": 2**20, "G": 2**30}.get(text[-1:], 1)
+    except (OSError, ValueError):
+        pass
+    return None
 
 
 def tall_blocks(D: np.ndarray, B: np.ndarray) -> np.ndarray:

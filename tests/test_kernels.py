@@ -175,8 +175,9 @@ def test_rk4_lie_stages_allocate_nothing(block37):
         nrt.memsys_disable_stats()
 
 
-@pytest.mark.parametrize("size, level2, expected", [("1024K", "Unified", 66), ("2M", "Data", 93), ("256K", "Unified", 48),
-                                                    ("512K", "Instruction", 48), (None, None, 48)])
+@pytest.mark.parametrize("size, level2, expected", [("1024K", "Unified", 66), ("2M", "Data", 93),
+                                                    ("256K", "Unified", 48), ("512K", "Instruction", 48),
+                                                    (None, None, 48)])
 def test_the_tall_storage_reaches_as_far_as_the_l2_cache_holds_it(tmp_path, monkeypatch, size, level2, expected):
     """sim.model.tall_max from Linux's sysfs description of the caches: tall while its 72 nf^2 bytes take at most
     TALL_L2_SHARE of the L2 (data or unified) cache, never below TALL_MAX; an instruction cache, or no

@@ -144,7 +144,7 @@ def tall_max() -> int:
     """Modes up to which the kernels read ``tall``: TALL_MAX, or more where its 72 nf^2 bytes stay within
     TALL_L2_SHARE of the L2 cache (66 modes on 1 MiB, 93 on 2 MiB). Full right-hand side, tall against strips,
     both on 1 MiB L2: 0.60-0.82x from 32 to 64 modes, 0.75x at 72, 0.88x at 80, 0.83x at 100 on an Intel Xeon
-    (2026-11-27); 0.63-0.78x from 16 to 64, 1.0x at 80, 1.13x at 100 on an AMD EPYC (2026-11-25)."""
+    (2026-11-27); 0.63-0.78x from 16 to 64, 1.0x at 80, 1.13x at 100 on the AMD EPYC of the sessions before."""
     size = l2_bytes()
     return TALL_MAX if size is None else max(TALL_MAX, int(np.sqrt(TALL_L2_SHARE * size / 72)))
 

@@ -158,7 +158,7 @@ def test_prestressed_spinning_frequencies_agree_with_calculix_perturbation_step(
     from ffrf_advisor.centrifugal import centrifugal_loads, static_deflections, support_dofs
     from ffrf_advisor.fe.assembly import full_mass, mass_matrix, stiffness_matrix
     from ffrf_advisor.fe.geometric import geometric_scalar
-    from ffrf_advisor.io.calculix import _dat_eigenvalues
+    from ffrf_advisor.io.calculix import _dat_eigenvalues  # noqa: F401
     import scipy.linalg as sla
     X = MESH.points
     c = X.mean(axis=0)

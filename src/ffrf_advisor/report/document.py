@@ -204,7 +204,13 @@ def verification_section(study: dict) -> Section:
     rows = [(r["set"], r["scene"], "failed" if r["failed"] else _num(max(
         (e for e in r["errors"].values() if e is not None), default=None)), "yes" if r["meets"] else "no",
         _num(r["energy_drift"]), _num(r["wall_s"], "s"), _num(r.get("speedup"), "x")) for r in study["results"]]
-    blocks = [("fields", [("verdict", v["verdict"]), ("statement", v["text"]),
+    b, op = study["body"], study.get("operating_point") or {}
+    speed = op.get("speed_rad_s")
+    blocks = [("fields", [("body", f"{b['name']} ({b['file']})"), ("SHA-256", b.get("sha256", "not stated")),
+                          ("speed asked", "not given (at rest)" if speed is None else _num(speed, "rad/s")),
+                          ("advice checked at", _num(study["advice"]["speed_rad_s"], "rad/s")),
+                          ("date", study.get("date", "not stated")),
+                          ("verdict", v["verdict"]), ("statement", v["text"]),
                           ("criterion", study["criterion"]), ("tolerance", _num(study["tolerance"]))]),
               ("table", (("set", "scene", "worst error", "meets", "energy drift", "wall time", "speed-up"), rows))]
     stab = study["stability"]

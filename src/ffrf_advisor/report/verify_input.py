@@ -4,8 +4,13 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..errors import FFRFError
+
+if TYPE_CHECKING:
+    from ..analysis import Analysis
+    from ..situation import Situation
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 SCHEMA_VERSION = 3  # of `verify --json` (report.verify_json); 3: work_precision, stability, campbell null with --quick
@@ -47,3 +52,34 @@ def _is_png(path: Path) -> bool:
             return path.is_file() and f.read(len(PNG_SIGNATURE)) == PNG_SIGNATURE
     except OSError:
         return False
+
+
+def operating_point(sit: "Situation") -> dict:
+    """The operating point as asked, as ``verify --json`` states it and ``check_matches`` compares it."""
+    return {"speed_rad_s": sit.w_op, "speed_range_rad_s": None if sit.speed_range is None else list(sit.speed_range),
+            "spin_axis": None if sit.spin_axis is None else list(sit.spin_axis), "principal_axis": sit.principal_axis,
+            "connection": sit.connection, "excitation": sit.excitation, "rules": sit.rules}
+
+
+def check_matches(data: dict, a: "Analysis", body_sha256: str, path: Path) -> None:
+    """Refuse (one line) a verification of another body file, operating point, tolerance or advised term set
+    than the report's: its verdict would vouch for advice it never checked. The term sets are compared where
+    the verification's advice is at the operating point asked (``verify`` analyses again at the scenes' spin
+    where that is higher; then its set is the one for that speed)."""
+    def refuse(what: str, expected, got) -> None:
+        raise FFRFError(f"{path}: --verification {what}: expected {expected} (the report's), got {got}")
+
+    sit = a.options.situation
+    given_sha = data.get("body", {}).get("sha256")
+    if given_sha != body_sha256:
+        refuse("body", f"SHA-256 {body_sha256[:16]}...", "no SHA-256 (run verify --json again)" if given_sha is None
+               else f"{data['body'].get('file')} with SHA-256 {str(given_sha)[:16]}...")
+    asked = json.loads(json.dumps(operating_point(sit)))
+    if data.get("operating_point") != asked:
+        refuse("operating point", asked, data.get("operating_point"))
+    if data.get("tolerance") != sit.tolerance:
+        refuse("tolerance", sit.tolerance, data.get("tolerance"))
+    advice = data.get("advice", {})
+    if advice.get("speed_rad_s") == sit.w_op and advice.get("excitation") == sit.excitation \
+            and advice.get("terms") != list(a.advice.terms):
+        refuse("advised terms", "+".join(a.advice.terms), "+".join(map(str, advice.get("terms", []))))

@@ -1,10 +1,13 @@
 """The versioned JSON of `verify` (schema: src/ffrf_advisor/schemas/verify.json), read from a verify.study.Study."""
 from __future__ import annotations
 
+import datetime as _dt
 from dataclasses import asdict
+from pathlib import Path
 
 import numpy as np
 
+from ..io import sha256
 from ..units import TIME
 from ..verify.runner import REF_RTOL, SELF_CHECK, Verdict
 from ..verify.measures import worst
@@ -12,7 +15,7 @@ from ..verify.scenes import Scene
 from ..verify.study import Study
 from ..verify.workprecision import pareto
 from .json_out import json_number
-from .verify_input import SCHEMA_VERSION
+from .verify_input import SCHEMA_VERSION, operating_point
 
 
 
@@ -76,6 +79,12 @@ def _campbell(c: dict) -> dict:
             "gaps": {str(k + 1): v for k, v in c["gaps"].items()}}
 
 
+def _body(a, source: str) -> dict:
+    """The body verified: its file (with the file's SHA-256 where it is one), name, units and mode count."""
+    sha = {"sha256": sha256(source)} if Path(source).is_file() else {}
+    return {"file": source, **sha, "name": a.body.name, "units": str(a.body.units), "nf": a.body.nf}
+
+
 def study_json(st: Study, source: str, figures: tuple[str, ...] = ()) -> dict:
     """The documented JSON of ``verify --json`` (src/ffrf_advisor/schemas/verify.json), with the paths of the
     figures written (report.verify_figures.write_figures)."""
@@ -83,7 +92,9 @@ def study_json(st: Study, source: str, figures: tuple[str, ...] = ()) -> dict:
     per_s = float(TIME[a.body.units.time])
     return _clean({
         "schema_version": SCHEMA_VERSION,
-        "body": {"file": source, "name": a.body.name, "units": str(a.body.units), "nf": a.body.nf},
+        "body": _body(a, source),
+        "operating_point": operating_point(st.asked or a.options.situation),
+        "date": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "advice": {"level": a.advice.level, "terms": list(a.advice.terms), "lagrangian": a.advice.lagrangian,
                    "lagrangian_superset": a.advice.lagrangian_superset, "speed_rad_s": a.options.situation.w_op,
                    "excitation": a.options.situation.excitation},

@@ -13,6 +13,7 @@ import numpy as np
 from ..analysis import Analysis
 from ..pool import beside
 from ..response import frequency_change
+from ..situation import Situation
 from ..sim.equations import energy
 from ..sim.integrate import COMPILED, compile_beside
 from ..sim.linearise import campbell, campbell_speeds
@@ -37,6 +38,7 @@ class Study:
     work_precision: list[Point] | None
     stability: dict | None
     campbell: dict | None
+    asked: Situation | None = None  # the operating point as asked, before ``for_scenes`` raised the speed
 
 
 def campbell_data(a: Analysis, speed: float, axis: int | None = None) -> dict:
@@ -104,7 +106,7 @@ def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str
     axes. ``quick``: the scenes and the verdict only. ``progress(label, done, total)`` is told of each finished
     run and study."""
     scenes = make_scenes(scene_names, a, scene_options)
-    a = for_scenes(a, scenes)
+    asked, a = a.options.situation, for_scenes(a, scenes)
     runs = len(scenes) * (1 + len(distinct(term_sets(a))))
     total = runs + (0 if quick else 3)
     told = (lambda label, done, _: progress(label, done, total)) if progress else (lambda *_: None)
@@ -124,4 +126,4 @@ def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str
         stab, camp = pending() if pending else studies()
         told("stability studies", runs + 2, total)
         told("Campbell diagram", runs + 3, total)
-    return Study(a, ver, points, stab, camp)
+    return Study(a, ver, points, stab, camp, asked)

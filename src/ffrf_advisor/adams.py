@@ -1,6 +1,6 @@
 """Adams-style inertia invariants I1..I9 <-> the shape integrals of theory section 3.
 
-Definitions and mapping: ../shared/adams_invariants.md sections 1.2 and 3
+Definitions and mapping: docs/adams_invariants.md sections 1.2 and 3
 (Adams sign convention: I8_j = sum m s~ Phi_j~, I9_jk = sum m Phi_j~ Phi_k~).
 With C_j[k, l] = Ibar_kl[j] and D_ij[k, l] = Sbar_kl[i, j]:
 I8_j = C_j^T - tr(C_j) E, I9_ij = D_ij^T - tr(D_ij) E, I7 = tr(C0) E - C0.
@@ -15,7 +15,8 @@ SIGNS = ("adams", "mbdyn")  # MBDyn stores I8 with the opposite sign
 
 
 def _minus_trace(A: np.ndarray, axes: str) -> np.ndarray:
-    """A^T - tr(A) E for stacks of 3x3 blocks A[k, l, ...] (the map of section 3.2, in both directions up to 1/2)."""
+    """A^T - tr(A) E for stacks of 3x3 blocks A[k, l, ...]: docs/adams_invariants.md section 3.2's map, both
+    directions up to 1/2."""
     tr = np.einsum(f"kk{axes}->{axes}", A)
     E = np.eye(3).reshape((3, 3) + (1,) * len(axes))
     return np.swapaxes(A, 0, 1) - tr * E
@@ -45,7 +46,7 @@ def to_adams(J: ShapeIntegrals, I8_sign: str = "adams") -> dict[str, np.ndarray]
 
 
 def from_adams(inv: dict[str, np.ndarray], nf: int, I8_sign: str = "adams") -> ShapeIntegrals:
-    """Shape integrals from I1, I2, I7, I8 and optional I3, I5, I9 (section 3.3).
+    """Shape integrals from I1, I2, I7, I8 and optional I3, I5, I9 (docs/adams_invariants.md section 3.3).
 
     I_kl = 1/2 tr(I7') delta_kl - I7'[k, l], so that I0 = I7 exactly, with I7' = I7 less the
     ``nodal_rotary_inertia_sum`` when the file gives it (then carried as the rotary sums of theory 3b with
@@ -84,7 +85,8 @@ def _rotary(inv: dict[str, np.ndarray], nf: int) -> RotaryIntegrals | None:
 
 
 def w3_from_I9(I9: np.ndarray) -> np.ndarray:
-    """W3 (3, nf, nf) from I9 alone: v = axial(I9_ji - I9_ij), W3[k, j, i] = v_k (section 3.3)."""
+    """W3 (3, nf, nf) from I9 alone: v = axial(I9_ji - I9_ij), W3[k, j, i] = v_k (docs/adams_invariants.md
+    section 3.3)."""
     A = np.swapaxes(I9, 0, 1) - I9  # A[i, j] = I9_ji - I9_ij
     v = -0.5 * np.einsum("kab,ijab->kij", EPS, A)  # skew(v)_ab = -eps_abk v_k
     return np.swapaxes(v, 1, 2)

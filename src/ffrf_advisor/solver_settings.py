@@ -1,6 +1,6 @@
 """The advisor's term set as solver settings (docs/solvers.md cites the sources).
 
-Adams: modal formulation and INVARIANTS= pattern (../shared/adams_invariants.md
+Adams: modal formulation and INVARIANTS= pattern (docs/adams_invariants.md
 section 2.2); RecurDyn: the RFlex mass-invariant option Partial or Full;
 EXUDYN: its one switch of all inertia terms; Chrono: its modal assembly, which
 has no inertia-term switch. Each mapping carries how sure it is: "seen" in a
@@ -85,9 +85,9 @@ def recurdyn_settings(terms: tuple[str, ...]) -> dict:
 def exudyn_settings(terms: tuple[str, ...]) -> dict:
     """EXUDYN evaluates every inertia term or none (``computeFFRFterms``) and has no geometric stiffening."""
     return _tagged("exudyn", "computeFFRFterms=True", "ObjectFFRFreducedOrder(..., computeFFRFterms=True)", "seen",
-                   FULL, terms, "seen: ../shared/exudyn.md (EXUDYN 1.13.6, ObjectFFRFreducedOrder): one switch turns "
-                   "all inertia terms on or off; no geometric stiffening. False would drop the terms the advice "
-                   "keeps too")
+                   FULL, terms, "seen: EXUDYN 1.13.6 documentation, ObjectFFRFreducedOrder (computeFFRFterms): "
+                   "one switch turns all inertia terms on or off; no geometric stiffening. False would drop the terms "
+                   "the advice keeps too")
 
 
 def chrono_settings(terms: tuple[str, ...]) -> dict:

@@ -25,7 +25,7 @@ class Term:
     group: str
     where: str
     needs: tuple[str, ...]
-    adams: tuple[int, ...]  # Adams invariants carrying it (adams_invariants.md section 3.3)
+    adams: tuple[int, ...]  # Adams invariants carrying it (docs/adams_invariants.md section 3.3)
     text: str
 
 

@@ -20,7 +20,7 @@ from ffrf_advisor.analysis import Options, analyze  # noqa: E402
 from ffrf_advisor.cli import app  # noqa: E402
 from ffrf_advisor.errors import FFRFError  # noqa: E402
 from ffrf_advisor.guidelines import Situation  # noqa: E402
-from ffrf_advisor.io import nastran, nastran_dmig, nastran_mass, read_body, write_body  # noqa: E402
+from ffrf_advisor.io import nastran, nastran_dmig, nastran_mass, nastran_solids, read_body, write_body  # noqa: E402
 
 from .fuzz_readers import counted, mutate  # noqa: E402
 
@@ -149,7 +149,7 @@ def _write_op2(path, points, lam, T, R=None, body=None, frame=None, deck=None) -
         model.add_psolid(1, 1)
         for e, conn in enumerate(body.fe.mesh.cells["hexahedron20"]):
             nastran_order = np.empty(20, int)
-            nastran_order[nastran_mass.HEX20] = conn + 1  # the reader's map, inverted
+            nastran_order[nastran_solids.TO_VTK["hexahedron20"]] = conn + 1  # the reader's map, inverted
             model.add_chexa(e + 1, 1, nastran_order.tolist())
     data = np.zeros((nm, n, 6), np.float32)
     data[:, :, :3] = np.einsum("ba,ibp->pia", F, T)  # CD components F^T u

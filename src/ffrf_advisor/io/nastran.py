@@ -23,7 +23,7 @@ from ..fe.assembly import full_mass
 from ..fe.modal import N_RIGID, RIGID_HZ, mode_signs, rigid_eigenvalues
 from ..fe.mesh import Mesh
 from ..transform import free_surface_ritz
-from . import guard, nastran_dmig
+from . import guard, nastran_dmig, nastran_props
 from .nastran_modes import NastranModes
 from .nastran_mass import (NodalMass, assembled_mass, generalized_mass_error, modes_with_extra_nodes,
                            rotary_share)
@@ -72,9 +72,10 @@ def _parse_and_assemble(path, pch: str | None, deck: str | None, free_free: bool
     mats = None if pch is None else nastran_dmig.read(pch, run.grids, _frames(path, m, run.grids))
     if free_free:
         _require_free_free(path, run.eigenvalues, mats)
-    if mats is None or mats.M is None:
-        return run, assembled_mass(path, m, run), mats
-    return run, nastran_dmig.nodal_form(mats.M, run.points, pch), mats
+    assembled = mats is None or mats.M is None
+    mass = assembled_mass(path, m, run) if assembled else nastran_dmig.nodal_form(mats.M, run.points, pch)
+    mass.notes += nastran_props.checked(path, m, mass, run.points, assembled)
+    return run, mass, mats
 
 
 def _geometry_from_deck(m, deck: str) -> None:
@@ -244,7 +245,7 @@ def free_surface_run(path, run: NastranModes, mass: NodalMass, mats: nastran_dmi
                        np.concatenate([rigid6[:, :3], S[:, :3]], axis=2),
                        np.concatenate([rigid6[:, 3:], S[:, 3:]], axis=2), None, run.element_types)
     note = (f"not free-free ({int(rigid_eigenvalues(run.eigenvalues).sum())} of {nm} modes rigid): the modes "
-            f"brought to the form of theory 4 with {nastran_dmig.MASS} and {nastran_dmig.STIFFNESS}: {k} Ritz vectors of the "
-            f"free body ({dropped} rigid or dependent dropped), as good as the run's modes span its modes; "
+            f"brought to the form of theory 4 with {nastran_dmig.MASS} and {nastran_dmig.STIFFNESS}: {k} Ritz vectors "
+            f"of the free body ({dropped} rigid or dependent dropped), as good as the run's modes span its modes; "
             "no modal stresses (their combination needs stress tensors)")
     return out, note

@@ -2,28 +2,31 @@
 modal masses it gives the run's modes:
 - CONM2: mass and inertia at its CG (an offset CG becomes a node moving rigidly with its grid);
 - CBAR, CBEAM, CROD, CONROD, CTUBE: half the element mass (with non-structural mass) at each end; CBEAM
-  also half its torsional inertia rho J L about its axis;
-- CQUAD4, CQUADR, CQUAD8, CTRIA3, CTRIAR, CTRIA6: the element mass shared equally by its nodes;
-- CHEXA with 8 or 20 nodes: the consistent mass of the FE module;
-- springs, dampers and rigid elements carry no mass; any other element is refused by name.
+  also half its torsional inertia rho J L about its axis, the others no rotary inertia;
+- CQUAD4, CQUADR, CQUAD8, CTRIA3, CTRIAR, CTRIA6: the element mass (with non-structural mass) shared equally
+  by its nodes, translations only: no rotary inertia (as Nastran's lumped shell mass);
+- CTETRA (4, 10 grids), CPENTA (6, 15), CPYRAM (5, 13), CHEXA (8, 20): the consistent mass of the FE module
+  (``nastran_solids``: the node order and handedness);
+- springs, dampers and rigid elements (RBE2, RBE3, RBAR: not elements to pyNastran) carry no mass: a mass on
+  a dependent grid moves with the grid's recovered motion, which the OP2 holds at every grid, so its modal
+  mass is exact; any other element is refused by name.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
 from ..errors import BodyFileError
-from ..fe.assembly import mass_matrix
-from ..fe.mesh import Mesh
+from . import nastran_solids
 from .nastran_modes import NastranModes
 
 LINES = ("CBAR", "CBEAM", "CROD", "CONROD", "CTUBE")
 SHELLS = ("CQUAD4", "CQUADR", "CQUAD8", "CTRIA3", "CTRIAR", "CTRIA6")
 MASSLESS = ("CELAS1", "CELAS2", "CELAS3", "CELAS4", "CDAMP1", "CDAMP2", "CDAMP3", "CDAMP4", "CVISC", "CBUSH",
             "CBUSH1D", "CGAP", "PLOTEL")
-HEX20 = list(range(12)) + list(range(16, 20)) + list(range(12, 16))  # Nastran CHEXA20 -> VTK node order
+FORWARD = "give the mass as DMIG MAAX beside the OP2 (PARAM,EXTOUT,DMIGPCH): then no element is assembled"
 
 
 @dataclass
@@ -36,6 +39,7 @@ class NodalMass:
     extra_of: np.ndarray          # (k,) the grid index each moves with
     notes: list[str]
     what: str = "the assembled mass"
+    solids: list[tuple[str, np.ndarray, np.ndarray]] = field(default_factory=list)  # (cell, conn, mirrored)
 
 
 def assembled_mass(path, m, run: NastranModes) -> NodalMass:
@@ -47,29 +51,40 @@ def assembled_mass(path, m, run: NastranModes) -> NodalMass:
     extra = _point_masses(path, m, run, index, diag, J)
     k = len(extra)
     Ms = sp.diags_array(np.concatenate([diag, [e[2] for e in extra]])).tocsr()
-    for (cell, rho), conns in solids.items():
-        hexes = Mesh(run.points, {cell: np.array(conns)})
-        Ms = Ms + sp.block_diag([mass_matrix(hexes, rho), sp.csr_array((k, k))]).tocsr()
+    cells = []
+    for (cell, rho), (conns, eids) in solids.items():
+        conn, mirrored = nastran_solids.oriented(cell, np.array(conns), run.points)
+        cells.append((cell, conn, mirrored))
+        block = nastran_solids.solid_mass(path, run.points, cell, conn, np.array(eids), rho)
+        Ms = Ms + sp.block_diag([block, sp.csr_array((k, k))]).tocsr()
+    mirrored = sum(int(c[2].sum()) for c in cells)
     notes = [f"mass assembled from {', '.join(f'{v} {t}' for t, v in run.element_types.items())}"
-             + (f"; {k} CONM2 with an offset CG as nodes moving rigidly with their grid" if k else "")]
+             + (f"; {k} CONM2 with an offset CG as nodes moving rigidly with their grid" if k else "")
+             + (f"; {mirrored} solids of the other handedness renumbered" if mirrored else "")]
     return NodalMass(sp.csr_array(Ms), np.concatenate([J, np.array([e[3] for e in extra]).reshape(k, 3, 3)]),
-                         np.array([e[0] for e in extra]).reshape(k, 3), np.array([e[1] for e in extra], np.int64),
-                         notes)
+                     np.array([e[0] for e in extra]).reshape(k, 3), np.array([e[1] for e in extra], np.int64),
+                     notes, solids=cells)
 
 
 def _element_mass(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: np.ndarray) -> dict:
-    """Lumped line and shell masses into ``diag`` and ``J``; the CHEXA connectivities by (cell type, rho)."""
-    refused = sorted({e.type for e in m.elements.values()} - set(LINES) - set(SHELLS) - set(MASSLESS) - {"CHEXA"})
+    """Lumped line and shell masses into ``diag`` and ``J``; the solids' VTK connectivities and element ids by
+    (cell type, rho)."""
+    known = {*LINES, *SHELLS, *MASSLESS, *nastran_solids.SOLIDS}
+    refused = sorted({e.type for e in m.elements.values()} - known)
     if refused:
-        raise BodyFileError(path, "elements", "element types whose mass the reader assembles (docs/format.md)",
-                            ", ".join(refused))
-    solids: dict[tuple[str, float], list] = {}
+        carried = ", ".join(sorted(known - set(MASSLESS)))
+        raise BodyFileError(path, "elements", f"element types whose mass the reader assembles ({carried}; "
+                            f"docs/format.md), or {FORWARD}", ", ".join(refused))
+    solids: dict[tuple[str, float], tuple[list, list]] = {}
     for e in m.elements.values():
         if e.type in MASSLESS:
             continue
         nodes = [index[g] for g in e.node_ids if g is not None]
-        if e.type == "CHEXA":
-            _hexa(path, e, nodes, solids)
+        if e.type in nastran_solids.SOLIDS:
+            cell = nastran_solids.cell_of(path, e, nodes)
+            conns, eids = solids.setdefault((cell, float(e.Rho())), ([], []))
+            conns.append(nastran_solids.to_vtk(cell, nodes))
+            eids.append(e.eid)
         elif e.type in LINES:
             a, b = nodes[:2]
             diag[[a, b]] += float(e.Mass()) / 2
@@ -89,7 +104,7 @@ def _point_masses(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: 
         if c.type != "CONM2":
             raise BodyFileError(path, "masses", "CONM2 point masses", c.type)
         i = index[c.nid]
-        cg, inertia = np.asarray(c.Centroid(), dtype=float), np.asarray(c.Inertia(), dtype=float)
+        cg, inertia = np.asarray(c.Centroid(), dtype=float), _conm2_inertia(path, c)
         if np.linalg.norm(cg - run.points[i]) <= 1e-12 * max(1.0, np.abs(run.points).max()):
             diag[i] += c.mass
             J[i] += inertia
@@ -98,12 +113,18 @@ def _point_masses(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: 
     return extra
 
 
-def _hexa(path, e, nodes: list[int], solids: dict) -> None:
-    if len(nodes) not in (8, 20):
-        raise BodyFileError(path, f"CHEXA {e.eid}", "8 or 20 nodes", str(len(nodes)))
-    cell = "hexahedron" if len(nodes) == 8 else "hexahedron20"
-    order = nodes if len(nodes) == 8 else [nodes[i] for i in HEX20]
-    solids.setdefault((cell, float(e.pid_ref.mid_ref.rho)), []).append(order)
+def _conm2_inertia(path, c) -> np.ndarray:
+    """A CONM2's inertia at its CG in basic: ``[[I11, -I21, -I31], [-I21, I22, -I32], [-I31, -I32, I33]]`` in
+    its CID's axes (pyNastran's ``Inertia`` gives zeros for a CID other than 0 or -1)."""
+    I11, I21, I22, I31, I32, I33 = (float(v) for v in c.I)
+    A = np.array([[I11, -I21, -I31], [-I21, I22, -I32], [-I31, -I32, I33]])
+    if c.Cid() in (0, -1):
+        return A
+    if c.cid_ref.type not in ("CORD1R", "CORD2R"):
+        raise BodyFileError(path, f"CONM2 {c.eid} CID", "a rectangular frame for its offset and inertia",
+                            f"{c.cid_ref.type} {c.Cid()}")
+    B = np.asarray(c.cid_ref.beta(), dtype=float)  # rows: the frame's axes in basic
+    return B.T @ A @ B
 
 
 def modes_with_extra_nodes(run: NastranModes, mass: NodalMass) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -44,8 +44,8 @@ def _blocks(mesh: Mesh) -> Iterator[tuple[ElementType, np.ndarray]]:
 
 
 def _element_mass(etype: ElementType, coords: np.ndarray, rho: float) -> np.ndarray:
-    """Consistent scalar element mass matrices (ne, nn, nn)."""
-    xi, w = etype.gauss_rule()
+    """Consistent scalar element mass matrices rho int N_a N_b dV (ne, nn, nn), exact (``ElementType.mass_rule``)."""
+    xi, w = etype.mass_rule()
     N, _ = etype.shape(xi)
     _, detJ = element_gradients(etype, coords, xi)
     return rho * np.einsum("eq,qn,qm->enm", detJ * w, N, N, optimize=True)

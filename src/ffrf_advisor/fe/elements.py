@@ -1,17 +1,26 @@
 """Isoparametric solid elements in VTK/meshio node order.
 
-Each element type is given by its reference node coordinates on [-1, 1]^3
-(VTK order, so connectivity read by meshio or written to VTK needs no
-permutation), its shape functions and a Gauss rule that integrates the
-mass matrix of an undistorted element exactly.
+Each element type is given by its family's reference domain (``fe.quadrature``),
+its reference node coordinates there (VTK order, so connectivity read by meshio
+or written to VTK needs no permutation), its shape functions and two Gauss
+rules, ``n`` points per direction of its family's rule:
+
+- ``mass_order`` integrates N_a N_b det J exactly on any isoparametric element,
+  curved ones included (the degrees below, per reference coordinate, or total
+  degree on tetrahedra and the wedge's triangle);
+- ``gauss_order`` integrates the stiffness of a straight-sided (affine)
+  element exactly (the tensor hexahedra: their usual full rules).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cache
-from itertools import product
+from typing import Callable
 
 import numpy as np
+
+from . import quadrature
+from .lagrange import LagrangeBasis, tetra_exponents, wedge_exponents
+from .pyramid import PYRAMID5_NODES, PYRAMID13_NODES, pyramid5, pyramid13
 
 _CORNERS = np.array(
     [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
@@ -25,11 +34,14 @@ _EDGE_MIDS = np.array([(_CORNERS[a] + _CORNERS[b]) / 2 for a, b in EDGES])
 
 @dataclass(frozen=True)
 class ElementType:
-    """A hexahedral element family: meshio name, reference nodes, Gauss order."""
+    """A solid element: meshio name, family (reference domain), reference nodes, basis, Gauss orders."""
 
     name: str
+    family: str  # a key of quadrature.RULES
     ref_nodes: np.ndarray  # (nn, 3)
-    gauss_order: int
+    basis: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    gauss_order: int  # points per direction: stiffness of affine elements exact
+    mass_order: int  # points per direction: N_a N_b det J exact on curved elements
 
     @property
     def n_nodes(self) -> int:
@@ -37,14 +49,15 @@ class ElementType:
 
     def shape(self, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Shape functions N (npts, nn) and derivatives dN/dxi (npts, nn, 3) at xi (npts, 3)."""
-        xi = np.atleast_2d(np.asarray(xi, float))
-        if self.name == "hexahedron20":
-            return _serendipity20(xi, self.ref_nodes)
-        return _lagrange_tensor(xi, self.ref_nodes)
+        return self.basis(np.atleast_2d(np.asarray(xi, float)))
 
-    def gauss_rule(self) -> tuple[np.ndarray, np.ndarray]:
-        """Tensor Gauss-Legendre points (nq, 3) and weights (nq,)."""
-        return _gauss_rule(self.gauss_order)
+    def gauss_rule(self, order: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The family's rule of ``order`` (default ``gauss_order``) points per direction: points (nq, 3), weights."""
+        return quadrature.RULES[self.family](order or self.gauss_order)
+
+    def mass_rule(self) -> tuple[np.ndarray, np.ndarray]:
+        """The rule exact for the consistent mass of a curved element (``mass_order``)."""
+        return self.gauss_rule(self.mass_order)
 
 
 def _lagrange_1d(t: np.ndarray, a: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
@@ -57,7 +70,7 @@ def _lagrange_1d(t: np.ndarray, a: np.ndarray, order: int) -> tuple[np.ndarray, 
     return value, deriv
 
 
-def _lagrange_tensor(xi: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _lagrange_tensor(ref: np.ndarray, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     order = 2 if np.any(ref == 0) else 1
     vals, ders = zip(*(_lagrange_1d(xi[:, d], ref[:, d], order) for d in range(3)))
     N = vals[0] * vals[1] * vals[2]
@@ -67,7 +80,7 @@ def _lagrange_tensor(xi: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.nd
     return N, dN
 
 
-def _serendipity20(xi: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _serendipity20(ref: np.ndarray, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     x, y, z = (xi[:, d][:, None] for d in range(3))
     a, b, c = ref[:, 0], ref[:, 1], ref[:, 2]
     fx, fy, fz = 1 + a * x, 1 + b * y, 1 + c * z
@@ -89,19 +102,46 @@ def _serendipity20(xi: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndar
     return N, dN
 
 
-@cache
-def _gauss_rule(order: int) -> tuple[np.ndarray, np.ndarray]:
-    t, w = np.polynomial.legendre.leggauss(order)
-    pts = np.array(list(product(t, t, t)))
-    wts = np.array([wi * wj * wk for wi, wj, wk in product(w, w, w)])
-    return pts, wts
+def _hexahedron(name: str, ref: np.ndarray, basis, gauss_order: int, mass_order: int) -> ElementType:
+    return ElementType(name, "hexahedron", ref, lambda xi: basis(ref, xi), gauss_order, mass_order)
 
 
-HEX8 = ElementType("hexahedron", _CORNERS, 2)
-HEX20 = ElementType("hexahedron20", np.vstack([_CORNERS, _EDGE_MIDS]), 3)
-HEX27 = ElementType("hexahedron27", np.vstack([_CORNERS, _EDGE_MIDS, _FACES, np.zeros((1, 3))]), 3)
+def _edge_nodes(corners: np.ndarray, edges: list[tuple[int, int]]) -> np.ndarray:
+    return np.vstack([corners, [(corners[a] + corners[b]) / 2 for a, b in edges]])
 
-ELEMENT_TYPES = {e.name: e for e in (HEX8, HEX20, HEX27)}
+
+def _lagrange(name: str, family: str, ref: np.ndarray, exps: np.ndarray, gauss_order: int,
+              mass_order: int) -> ElementType:
+    return ElementType(name, family, ref, LagrangeBasis(ref, exps), gauss_order, mass_order)
+
+
+_TET = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float)
+TETRA_EDGES = [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)]
+_WEDGE = np.array([[0, 0, -1], [1, 0, -1], [0, 1, -1], [0, 0, 1], [1, 0, 1], [0, 1, 1]], float)
+WEDGE_EDGES = [(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)]
+
+# Stiffness (gauss_order): grad N_a . grad N_b of an affine element, degree 2 (p - 1) in total on tetrahedra and
+# triangles, per coordinate elsewhere: tetra 1, tetra10 2, wedge 2, wedge15 3 (degree 4), pyramid 2, pyramid13 3.
+# Mass degrees per reference coordinate (N_a N_b: 2p, det J of the isoparametric map: sum of its columns' degrees):
+# hexahedron 2 + 2 = 4 -> 3 points; hexahedron20/27 4 + 5 = 9 -> 5 points.
+HEX8 = _hexahedron("hexahedron", _CORNERS, _lagrange_tensor, 2, 3)
+HEX20 = _hexahedron("hexahedron20", np.vstack([_CORNERS, _EDGE_MIDS]), _serendipity20, 3, 5)
+HEX27 = _hexahedron("hexahedron27", np.vstack([_CORNERS, _EDGE_MIDS, _FACES, np.zeros((1, 3))]),
+                    _lagrange_tensor, 3, 5)
+# Total degree on the tetrahedron: tetra 2 + 0 -> 2 points (exact to 3); tetra10 4 + 3 = 7 -> 4 points.
+TET4 = _lagrange("tetra", "tetra", _TET, tetra_exponents(1), 1, 2)
+TET10 = _lagrange("tetra10", "tetra", _edge_nodes(_TET, TETRA_EDGES), tetra_exponents(2), 2, 4)
+# (triangle total degree, degree along z): wedge (2, 2) + (1, 2) = (3, 4) -> 3 points; wedge15 (4, 4) + (4, 5) ->
+# (8, 9) -> 5 points.
+WEDGE6 = _lagrange("wedge", "wedge", _WEDGE, wedge_exponents(1), 2, 3)
+WEDGE15 = _lagrange("wedge15", "wedge", _edge_nodes(_WEDGE, WEDGE_EDGES), wedge_exponents(2), 3, 5)
+# Collapsed coordinates (a, b, c) (fe.pyramid): det(dx/d(a, b, c)) = (1 - c)^2 g, the Gauss-Jacobi weight times g;
+# N_a N_b g has degree (3, 3, 2) for the pyramid (g is linear in a and in b: the a-terms of its b column are
+# parallel to the ab-terms of its c column) -> 2 points; (9, 9, 7) for pyramid13 -> 5 points.
+PYR5 = ElementType("pyramid", "pyramid", PYRAMID5_NODES, pyramid5, 2, 2)
+PYR13 = ElementType("pyramid13", "pyramid", PYRAMID13_NODES, pyramid13, 3, 5)
+
+ELEMENT_TYPES = {e.name: e for e in (HEX8, HEX20, HEX27, TET4, TET10, WEDGE6, WEDGE15, PYR5, PYR13)}
 
 
 def element_type(name: str) -> ElementType:

@@ -2,8 +2,10 @@
 optional extra ``ffrf-advisor[ansys]``), each file in a guarded reading child of its own (io.guard);
 docs/format.md says what to request.
 
-Nodes, hexahedra (SOLID185, SOLID186), eigenvalues and modes (UX, UY, UZ) and the element corner stresses
-from the .rst; the mass M and stiffness K from the .full. Units from /UNITS, a ``units`` option or the
+Nodes, solid elements (SOLID185/186 bricks and their degenerate prisms, pyramids and tetrahedra, SOLID187;
+MASS21 without rotary inertia is carried by the .full's M; ``ansys_cells``), eigenvalues, modes (UX, UY, UZ)
+and the corner stresses of bricks from the .rst; the mass M (checked against the elements' own on its nodal
+sums) and stiffness K from the .full. Units from /UNITS, a ``units`` option or the
 materials (``ansys_units``). K is the free body's when the .full's is free; a .full written with
 constraints lacks their couplings, and then the elements' own stiffness is used where it reproduces the
 .full's on every other DOF (``ansys_fe``). Modes that are eigenvectors of the free body are taken as they
@@ -23,7 +25,7 @@ from ..fe.modal import N_RIGID, mode_signs, rigid_eigenvalues, rigid_modes
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from ..transform import free_surface_ritz
 from . import ansys_files, guard
-from .ansys_fe import free_stiffness, material_of, nodal_von_mises, scalar_mass
+from .ansys_fe import free_stiffness, mass_agreement, material_of, nodal_von_mises, scalar_mass
 from .ansys_files import AnsysRun
 from .ansys_units import UnitChoice, choose
 from .limits import check_file_size
@@ -66,11 +68,11 @@ def body_of(path, run: AnsysRun, units: str | None = None) -> FlexibleBody:
     lam, Phi, stress, modes_note = _modes(run, Ms, K, stiffness_note, choice)
     n = len(run.points)
     notes = (f"MAPDL {os.path.basename(str(path))} with {os.path.basename(run.full)}: {len(run.eigenvalues)} modes, "
-             f"{n} nodes, {', '.join(f'{v} {t}' for t, v in run.element_types.items())}"
-             + ("" if mesh.cells else " (not all hexahedra: no cells)"), choice.note, material_note, stiffness_note,
-             modes_note, "mass: the .full's; " + ("modal von Mises stress from the corner stresses, averaged at the "
-                                                  "nodes" if stress is not None else "no modal stresses (no "
-                                                  "element stresses at the corners of hexahedra)"))
+             f"{n} nodes, {', '.join(f'{v} {t}' for t, v in run.element_types.items())}; cells "
+             f"{', '.join(f'{len(c)} {t}' for t, c in mesh.cells.items()) or 'none'}", choice.note, material_note,
+             stiffness_note, modes_note, mass_agreement(run, Ms, choice.length, choice.mass),
+             "modal von Mises stress from the corner stresses, averaged at the nodes" if stress is not None else
+             "no modal stresses (corner stresses are read for hexahedra only, with ENS in the .rst)")
     kept = None if K is None else material  # the static response needs the K the modes belong to
     body = fe_body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi, lam,
                    Provenance(source=str(path), mass_matrix="consistent" if run.M.nnz > 3 * n else "lumped",

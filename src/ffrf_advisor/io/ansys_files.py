@@ -15,27 +15,28 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import BodyFileError, FFRFError
+from .ansys_cells import cells_of, refuse_unreadable
 from .limits import Budget
 
 ANALYSES = {0: "static", 1: "buckling", 3: "harmonic", 4: "transient", 7: "substructure", 8: "spectrum"}
-HEXES = {(185, 8): "hexahedron", (186, 20): "hexahedron20"}  # (routine, nodes): ANSYS node order is VTK's
 FAMILIES = {"SOLID": (45, 92, 95, 185, 186, 187, 285), "SHELL": (63, 181, 208, 209, 281), "BEAM": (188, 189),
             "MASS": (21,), "COMBIN": (14,), "LINK": (180,)}
-HEADER_WORDS = 10  # a row of the library's element table: 10 header words, then the element's nodes
+HEXAHEDRA = ("hexahedron", "hexahedron20")  # the cells whose corner stresses are read
 CORNERS = 8  # stresses of a hexahedron are written at its corners
 
 
 @dataclass
 class AnsysRun:
-    """A modal run in the file's units and global frame (theory 2): nodes, hexahedral cells ({} unless every
-    element is one), eigenvalues, modes, corner stresses per cell type, and the .full's M and K over the
-    node-interleaved DOFs ``3 i + c`` (K as stored: a constrained DOF keeps a unit diagonal only)."""
+    """A modal run in the file's units and global frame (theory 2): nodes, the solid elements as cells
+    (ansys_cells) with each cell's material, eigenvalues, modes, corner stresses per cell type, and the .full's
+    M and K over the node-interleaved DOFs ``3 i + c`` (K as stored: a constrained DOF keeps a unit diagonal)."""
 
     source: str
     full: str
     nodes: np.ndarray              # (n,) node numbers
     points: np.ndarray             # (n, 3)
     cells: dict[str, np.ndarray]   # meshio cell type -> (ne, nn) node indices
+    cell_material: dict[str, np.ndarray]  # meshio cell type -> (ne,) MP material number of each cell
     element_types: dict[str, int]  # e.g. {"SOLID186": 40}
     materials: dict[int, dict[str, float]]  # MP tables (EX, NUXY, DENS, ...) by material number
     cell_materials: set[int]       # the material numbers the elements use
@@ -43,7 +44,7 @@ class AnsysRun:
     eigenvalues: np.ndarray        # (nm,) (2 pi f)^2
     modes: np.ndarray              # (n, 3, nm) UX, UY, UZ
     corner_stress: dict[str, np.ndarray] | None  # cell type -> (ne, 8, 6, nm) SX SY SZ SXY SYZ SXZ (float32);
-    # None when the run has no element stresses or not every element is a hexahedron
+    # None when the run has no element stresses or not every cell is a hexahedron
     M: sp.csr_array
     K: sp.csr_array
     constrained: np.ndarray        # (3n,) bool: DOFs the .full's run held
@@ -109,25 +110,23 @@ def _result(lib, rst: str, budget: Budget) -> AnsysRun:
     if kind != 2 or r.n_sector > 1:
         raise BodyFileError(rst, "analysis type", "a modal analysis (ANTYPE,MODAL) without cyclic symmetry",
                             f"{r.n_sector} sectors" if kind == 2 else ANALYSES.get(kind, f"type {kind}"))
-    dofs = list(r.result_dof(0))
-    if dofs != ["UX", "UY", "UZ"]:
-        raise BodyFileError(rst, "DOFs", "UX, UY, UZ at every node (solid elements; rotational DOFs are not read)",
-                            ", ".join(dofs))
     mesh = r.mesh
+    routines = np.asarray(mesh.etype, np.int64)
+    names = [_name(int(t)) for t in routines]
+    refuse_unreadable(rst, names, list(r.result_dof(0)))
     order = np.argsort(np.asarray(mesh.nnum, np.int64), kind="stable")
     nodes, points = np.asarray(mesh.nnum, np.int64)[order], np.asarray(mesh.nodes, float)[order, :3]
-    index = {int(k): i for i, k in enumerate(nodes)}
-    routines = np.asarray(mesh.etype, np.int64)
-    cells, rows = _cells(rst, mesh.elem, routines, index)
+    cells, rows = cells_of(rst, mesh.elem, routines, nodes)
+    material = np.asarray(mesh.material_type, np.int64)
     frequencies = np.asarray(r.time_values, float)
     budget.take("NSL", 24.0 * len(nodes) * len(frequencies))
     modes = np.stack([_at_nodes(rst, nodes, *r.nodal_solution(i), f"NSL of mode {i + 1}")
                       for i in range(len(frequencies))], axis=-1)
     stress = _corner_stress(rst, r, cells, rows, np.asarray(mesh.enum), nodes, len(frequencies), budget) \
-        if cells and r.available_results["ENS"] else None
-    names = [_name(int(t)) for t in routines]
+        if cells and set(cells) <= set(HEXAHEDRA) and r.available_results["ENS"] else None
     empty = sp.csr_array((0, 0))
     return AnsysRun(source=rst, full="", nodes=nodes, points=points, cells=cells,
+                    cell_material={t: material[k] for t, k in rows.items()},
                     element_types={t: names.count(t) for t in sorted(set(names))},
                     materials={int(k): {p: float(v) for p, v in d.items()} for k, d in r.materials.items()},
                     cell_materials={int(m) for m in np.asarray(mesh.material_type)},
@@ -139,23 +138,6 @@ def _result(lib, rst: str, budget: Budget) -> AnsysRun:
 def _name(routine: int) -> str:
     return next((f"{family}{routine}" for family, numbers in FAMILIES.items() if routine in numbers),
                 f"element {routine}")
-
-
-def _cells(rst, elem, routines: np.ndarray, index: dict) -> tuple[dict[str, np.ndarray], dict[str, list[int]]]:
-    """Hexahedra by meshio type and the element rows of each, or ({}, {}) when any element is not one."""
-    cells: dict[str, list] = {}
-    rows: dict[str, list[int]] = {}
-    for k, (e, routine) in enumerate(zip(elem, routines)):
-        nodes = [int(n) for n in e[HEADER_WORDS:]]
-        kind = HEXES.get((int(routine), len(nodes)))
-        if kind is None or len(set(nodes)) != len(nodes):
-            return {}, {}
-        missing = [n for n in nodes if n not in index]
-        if missing:
-            raise BodyFileError(rst, "elements", "element nodes among the nodes", f"node {missing[0]}")
-        cells.setdefault(kind, []).append([index[n] for n in nodes])
-        rows.setdefault(kind, []).append(k)
-    return {t: np.array(c, np.int64) for t, c in cells.items()}, rows
 
 
 def _at_nodes(rst, nodes: np.ndarray, nnum: np.ndarray, values: np.ndarray, field: str) -> np.ndarray:

@@ -1,0 +1,246 @@
+"""MAPDL elements as cells (io.ansys_cells): the meshes ansys-mapdl-reader ships (TetBeam.cdb: 3913 SOLID187
+written with their corners only; sector.cdb: 101 SOLID185 bricks and 4 degenerate prisms; HexBeam.cdb: 40
+SOLID186 bricks), every degenerate form of SOLID185/186 built on a unit cube, and the element types refused by
+name. Masses are checked against integrals that do not use the elements: the divergence theorem on the mesh's
+boundary faces, or the cube's own."""
+from __future__ import annotations
+
+import itertools
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+reader = pytest.importorskip("ansys.mapdl.reader", reason="the ANSYS reader's optional extra (pip install '.[ansys]')")
+
+from ansys.mapdl.reader import examples  # noqa: E402
+
+from ffrf_advisor.cli import app  # noqa: E402
+from ffrf_advisor.errors import BodyFileError  # noqa: E402
+from ffrf_advisor.fe.assembly import mass_matrix, stiffness_matrix  # noqa: E402
+from ffrf_advisor.fe.material import Material  # noqa: E402
+from ffrf_advisor.fe.mesh import Mesh  # noqa: E402
+from ffrf_advisor.io.ansys_cells import cells_of, refuse_unreadable  # noqa: E402
+
+EXAMPLES = Path(examples.__file__).parent
+ROUND_OFF = 1e-12  # sums over a few thousand elements' quadrature points in double precision: ~1e-14, margin 100
+ZERO_MODE = 1e-10  # a rigid mode's K eigenvalue against the largest: round-off of the assembly
+FACES = {"tetra": [(0, 2, 1), (0, 1, 3), (1, 2, 3), (0, 3, 2)],  # corner indices, outward by the right hand
+         "pyramid": [(0, 3, 2, 1), (0, 1, 4), (1, 2, 4), (2, 3, 4), (3, 0, 4)],
+         "wedge": [(0, 2, 1), (3, 4, 5), (0, 1, 4, 3), (1, 2, 5, 4), (2, 0, 3, 5)],
+         "hexahedron": [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]}
+runner = CliRunner()
+
+
+def _archive(name: str):
+    """Points sorted by node number, the node numbers, and the archive's element rows and routines."""
+    a = reader.Archive(str(EXAMPLES / name), parse_vtk=False)
+    order = np.argsort(a.nnum)
+    return np.asarray(a.nodes, float)[order, :3], np.asarray(a.nnum)[order], a.elem, np.asarray(a.etype)
+
+
+def _boundary_moments(points: np.ndarray, cells: dict[str, np.ndarray]) -> tuple[float, np.ndarray, np.ndarray]:
+    """Volume, first moments and second moments int x_k x_l dV of straight-edged cells by the divergence
+    theorem on the faces met once (each a bilinear patch of its corners, a triangle as one with a corner twice;
+    4 x 4 Gauss points integrate the degree-4 integrands exactly): V = int x.n / 3, int x_k = int x_k^2 n_k / 2,
+    int x_k^2 = int x_k^3 n_k / 3, int x_k x_l = int x_k x_l x_m n_m (m the third axis)."""
+    count: dict[tuple, list] = {}
+    for kind, conn in cells.items():
+        base = kind.rstrip("0123456789")
+        for face in FACES[base]:
+            for corners in conn[:, face]:
+                count.setdefault(tuple(sorted(corners)), []).append(corners)
+    t, w = np.polynomial.legendre.leggauss(4)
+    u, v = np.meshgrid((t + 1) / 2, (t + 1) / 2, indexing="ij")
+    u, v, wt = u.ravel(), v.ravel(), np.outer(w, w).ravel() / 4
+    V, m1, m2 = 0.0, np.zeros(3), np.zeros((3, 3))
+    for faces in count.values():
+        if len(faces) != 1:
+            continue
+        c = points[list(faces[0]) + ([faces[0][-1]] if len(faces[0]) == 3 else [])]
+        x = np.outer((1 - u) * (1 - v), c[0]) + np.outer(u * (1 - v), c[1]) + np.outer(u * v, c[2]) \
+            + np.outer((1 - u) * v, c[3])
+        xu = np.outer(1 - v, c[1] - c[0]) + np.outer(v, c[2] - c[3])
+        xv = np.outer(1 - u, c[3] - c[0]) + np.outer(u, c[2] - c[1])
+        n = np.cross(xu, xv) * wt[:, None]
+        V += np.sum(x * n) / 3
+        m1 += np.sum(x**2 * n, axis=0) / 2
+        for k, l in itertools.product(range(3), repeat=2):
+            m2[k, l] += np.sum(x[:, k]**3 * n[:, k]) / 3 if k == l else np.sum(x[:, k] * x[:, l] * x[:, 3 - k - l]
+                                                                                * n[:, 3 - k - l])
+    return V, m1, m2
+
+
+def _mass_moments(Ms, X: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """The nodal sums of theory 3: 1^T Ms 1, X^T Ms 1, X^T Ms X (exact for the isoparametric x)."""
+    return float(Ms.sum()), X.T @ (Ms @ np.ones(len(X))), X.T @ (Ms @ X)
+
+
+def _assert_moments(got, want) -> None:
+    for g, w in zip(got, want):
+        assert np.abs(np.asarray(g) - w).max() <= ROUND_OFF * np.abs(want[2]).max(), (g, w)
+
+
+# ---------------------------------------------------------------- the meshes the package ships
+@pytest.mark.parametrize("name,kinds", [("TetBeam.cdb", {"tetra": 3913}),
+                                        ("sector.cdb", {"hexahedron": 101, "wedge": 4})])
+def test_the_shipped_meshes_give_the_mass_of_their_boundary(name, kinds):
+    X, nodes, elem, routines = _archive(name)
+    cells, rows = cells_of(name, elem, routines, nodes)
+    assert {t: len(c) for t, c in cells.items()} == kinds
+    assert sorted(np.concatenate(list(rows.values()))) == list(range(len(elem)))  # every element once
+    _assert_moments(_mass_moments(mass_matrix(Mesh(X, cells), 1.0), X), _boundary_moments(X, cells))
+
+
+def test_the_shipped_prisms_are_those_with_repeated_nodes_k_l_and_o_p():
+    X, nodes, elem, routines = _archive("sector.cdb")
+    cells, rows = cells_of("sector.cdb", elem, routines, nodes)
+    for conn, k in zip(cells["wedge"], rows["wedge"]):
+        listed = np.asarray(elem[k][10:])
+        assert listed[2] == listed[3] and listed[6] == listed[7]
+        assert np.array_equal(nodes[conn], listed[[0, 1, 2, 4, 5, 6]])
+
+
+def test_the_shipped_solid186_bar_has_the_box_mass_and_moments():
+    X, nodes, elem, routines = _archive("HexBeam.cdb")
+    cells, _ = cells_of("HexBeam.cdb", elem, routines, nodes)
+    lo, hi = X.min(axis=0), X.max(axis=0)  # a 1 x 1 x 5 box of straight 20-node bricks
+    V = np.prod(hi - lo)
+    mean = (hi + lo) / 2
+    second = V * (np.outer(mean, mean) + np.diag((hi - lo) ** 2 / 12))
+    _assert_moments(_mass_moments(mass_matrix(Mesh(X, cells), 1.0), X), (V, V * mean, second))
+
+
+# ---------------------------------------------------------------- every degenerate form on a unit cube
+CUBE = np.array(list(itertools.product((0, 1), repeat=3)))[:, ::-1].astype(float)  # x fastest
+A0, B0, C0, D0 = (0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)
+A1, B1, C1, D1 = (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)
+EDGES20 = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
+
+
+def _bricks(form: str) -> list[list[tuple]]:
+    """The unit cube in one form, each element as MAPDL lists it: the brick's eight corners I..P, repeated."""
+    if form == "brick":
+        return [[A0, B0, C0, D0, A1, B1, C1, D1]]
+    if form == "prism":
+        return [[A0, B0, C0, C0, A1, B1, C1, C1], [A0, C0, D0, D0, A1, C1, D1, D1]]
+    centre = (0.5, 0.5, 0.5)
+    if form == "pyramid":  # a pyramid on each face, apex at the centre, base turned towards it
+        bases = [(A0, B0, C0, D0), (A1, D1, C1, B1), (A0, D0, D1, A1), (B0, B1, C1, C0), (A0, A1, B1, B0),
+                 (D0, C0, C1, D1)]
+        return [[*b, centre, centre, centre, centre] for b in bases]
+    tets = []  # Kuhn's six tetrahedra along the diagonal A0-C1
+    for p in itertools.permutations(range(3)):
+        v = [np.zeros(3)]
+        for axis in p:
+            v.append(v[-1] + np.eye(3)[axis])
+        a, b, c, d = (tuple(x) for x in v)
+        if np.linalg.det(np.array([b, c, d]) - np.array(a)) < 0:
+            b, c = c, b
+        tets.append([a, b, c, c, d, d, d, d])
+    return tets
+
+
+def _elements(form: str, quadratic: bool, apex_in_s: bool = False):
+    """Points, node numbers and MAPDL element rows (10 header words, then the nodes) of the cube in ``form``;
+    SOLID186 lists the mid-points of the brick's edges (a collapsed edge's is its node). ``apex_in_s``: a
+    tetrahedron's S written with its apex, as MAPDL's own archives hold it."""
+    numbers: dict[tuple, int] = {}
+    rows = []
+    for k, corners in enumerate(_bricks(form)):
+        c = np.array(corners, float)
+        pts = list(c) + ([(c[a] + c[b]) / 2 for a, b in EDGES20] if quadratic else [])
+        listed = [numbers.setdefault(tuple(np.round(p, 9)), len(numbers) + 1) for p in pts]
+        if apex_in_s:
+            listed[10] = listed[4]
+        rows.append(np.array([1, 1, 1, 1, 0, 0, 0, 0, k + 1, 0, *listed]))
+    X = np.array(list(numbers), float)
+    return X, np.arange(1, len(X) + 1), rows, np.full(len(rows), 186 if quadratic else 185)
+
+
+KINDS = {"brick": ("hexahedron", "hexahedron20"), "prism": ("wedge", "wedge15"), "pyramid": ("pyramid", "pyramid13"),
+         "tetrahedron": ("tetra", "tetra10")}
+STEEL = Material("steel", 210e3, 0.3, 7.85e-9)
+
+
+@pytest.mark.parametrize("quadratic", [False, True], ids=["SOLID185", "SOLID186"])
+@pytest.mark.parametrize("form", list(KINDS))
+def test_each_form_fills_the_cube_and_moves_only_rigidly_without_strain(form, quadratic):
+    """The cube's mass and moments (1, 1/2, 1/3 and 1/4); K with exactly six zero eigenvalues (a node out of
+    place leaves a mechanism or a gap) and the energy of a uniform strain: V (lambda tr(e)^2 + 2 mu e:e)."""
+    X, nodes, elem, routines = _elements(form, quadratic)
+    cells, _ = cells_of("cube", elem, routines, nodes)
+    assert list(cells) == [KINDS[form][quadratic]]
+    _assert_moments(_mass_moments(mass_matrix(Mesh(X, cells), 1.0), X),
+                    (1.0, np.full(3, 0.5), np.full((3, 3), 0.25) + np.eye(3) / 12))
+    K = stiffness_matrix(Mesh(X, cells), STEEL).toarray()
+    lam = np.linalg.eigvalsh(K)
+    assert np.sum(lam < ZERO_MODE * lam[-1]) == 6 and lam[6] > 1e-6 * lam[-1]
+    e = np.array([[1.0, 0.2, -0.1], [0.2, -0.5, 0.3], [-0.1, 0.3, 0.7]]) * 1e-3
+    u = (X @ e).ravel()
+    lame, mu = STEEL.lame
+    assert u @ K @ u == pytest.approx(lame * np.trace(e) ** 2 + 2 * mu * np.sum(e * e), rel=ROUND_OFF)
+
+
+def test_a_tetrahedron_with_its_apex_in_s_reads_as_mapdl_writes_it():
+    X, nodes, elem, routines = _elements("tetrahedron", True, apex_in_s=True)
+    cells, _ = cells_of("cube", elem, routines, nodes)
+    assert list(cells) == ["tetra10"] and mass_matrix(Mesh(X, cells), 1.0).sum() == pytest.approx(1, ROUND_OFF)
+
+
+def test_solid187_with_and_without_mid_side_nodes():
+    X, nodes, elem, _ = _elements("tetrahedron", True)
+    tet10 = [np.r_[e[:10], e[10:][[0, 1, 2, 4, 8, 9, 11, 16, 17, 18]]] for e in elem]  # I J K L, then M..R
+    cells, _ = cells_of("cube", tet10, np.full(len(elem), 187), nodes)
+    assert mass_matrix(Mesh(X, cells), 1.0).sum() == pytest.approx(1, ROUND_OFF) and list(cells) == ["tetra10"]
+    cells, _ = cells_of("cube", [e[:14] for e in tet10], np.full(len(elem), 187), nodes)
+    assert list(cells) == ["tetra"] and mass_matrix(Mesh(X, cells), 1.0).sum() == pytest.approx(1, ROUND_OFF)
+
+
+def test_point_masses_and_mesh_only_elements_make_no_cells():
+    X, nodes, elem, routines = _elements("brick", False)
+    mass = np.array([1, 2, 1, 1, 0, 0, 0, 0, 9, 0, 3])  # MASS21 on node 3
+    cells, rows = cells_of("cube", [*elem, mass, mass], np.r_[routines, 21, 200], nodes)
+    assert list(cells) == ["hexahedron"] and rows["hexahedron"].tolist() == [0]
+
+
+@pytest.mark.parametrize("change,field", [
+    (lambda e: e.__setitem__(13, e[12]), "SOLID185 element 1: expected a brick or one of MAPDL's degenerate"),  # K=L
+    (lambda e: e.__setitem__(15, 0), "SOLID185 element 1: expected every node of the element"),
+    (lambda e: e.__setitem__(15, 99), "elements: expected element nodes among the nodes, got node 99")])
+def test_a_form_mapdl_does_not_define_is_refused_naming_the_element(change, field):
+    X, nodes, elem, routines = _elements("brick", False)
+    change(elem[0])
+    with pytest.raises(BodyFileError, match="cube: " + field.replace("(", r"\(")):
+        cells_of("cube", elem, routines, nodes)
+
+
+# ---------------------------------------------------------------- element types refused by name
+def test_shells_beams_and_rotary_masses_are_refused_by_name():
+    with pytest.raises(BodyFileError) as e:
+        refuse_unreadable("a.rst", ["SOLID187", "SHELL181", "BEAM188", "BEAM188"], ["UX", "UY", "UZ", "ROTX"])
+    assert "got BEAM188 (2 elements), SHELL181 (1 elements)" in str(e.value) and "Nastran run" in str(e.value)
+    with pytest.raises(BodyFileError, match=r"a\.rst: DOFs: .* got MASS21 with rotary inertia \(KEYOPT\(3\)=0\)"):
+        refuse_unreadable("a.rst", ["SOLID186", "MASS21"], ["UX", "UY", "UZ", "ROTX", "ROTY", "ROTZ"])
+    refuse_unreadable("a.rst", ["SOLID186", "MASS21", "MESH200"], ["UX", "UY", "UZ"])  # read
+
+
+@pytest.mark.parametrize("routine,name", [(181, "SHELL181"), (281, "SHELL281"), (188, "BEAM188"),
+                                          (189, "BEAM189")])
+def test_the_cli_refuses_a_run_of_shells_or_beams_in_one_line_naming_them(tmp_path, routine, name):
+    """The shipped run with its element type's routine rewritten (ETY record: type number 1, then 186)."""
+    for suffix in ("rst", "full"):
+        shutil.copy(EXAMPLES / f"file.{suffix}", tmp_path / f"job.{suffix}")
+    words = np.fromfile(tmp_path / "job.rst", "<i4")
+    r = reader.read_binary(str(tmp_path / "job.rst"))
+    start = int(r._geometry_header["ptrETY"])
+    at = start + next(i for i in range(len(words) - start) if words[start + i - 1] == 1 and words[start + i] == 186)
+    words[at] = routine
+    words.tofile(tmp_path / "job.rst")
+    result = runner.invoke(app, ["info", str(tmp_path / "job.rst")])
+    line = result.output.strip()
+    assert result.exit_code == 2 and "\n" not in line, result.output
+    assert "job.rst: element types: expected SOLID185, SOLID186, SOLID187" in line
+    assert f"got {name} (40 elements)" in line

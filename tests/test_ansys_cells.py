@@ -7,22 +7,28 @@ from __future__ import annotations
 
 import itertools
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 from typer.testing import CliRunner
 
 reader = pytest.importorskip("ansys.mapdl.reader", reason="the ANSYS reader's optional extra (pip install '.[ansys]')")
 
 from ansys.mapdl.reader import examples  # noqa: E402
 
+from ffrf_advisor.checks import run_checks  # noqa: E402
 from ffrf_advisor.cli import app  # noqa: E402
 from ffrf_advisor.errors import BodyFileError  # noqa: E402
-from ffrf_advisor.fe.assembly import mass_matrix, stiffness_matrix  # noqa: E402
+from ffrf_advisor.fe.assembly import full_mass, mass_matrix, stiffness_matrix  # noqa: E402
 from ffrf_advisor.fe.material import Material  # noqa: E402
 from ffrf_advisor.fe.mesh import Mesh  # noqa: E402
+from ffrf_advisor.io import ansys  # noqa: E402
 from ffrf_advisor.io.ansys_cells import cells_of, refuse_unreadable  # noqa: E402
+from ffrf_advisor.io.ansys_files import AnsysRun  # noqa: E402
 
 EXAMPLES = Path(examples.__file__).parent
 ROUND_OFF = 1e-12  # sums over a few thousand elements' quadrature points in double precision: ~1e-14, margin 100
@@ -244,3 +250,58 @@ def test_the_cli_refuses_a_run_of_shells_or_beams_in_one_line_naming_them(tmp_pa
     assert result.exit_code == 2 and "\n" not in line, result.output
     assert "job.rst: element types: expected SOLID185, SOLID186, SOLID187" in line
     assert f"got {name} (40 elements)" in line
+
+
+# ---------------------------------------------------------------- a run of SOLID187 through the reader
+@pytest.fixture(scope="module")
+def tet_run():
+    """A free-free run on the shipped TetBeam mesh (3913 SOLID187, a 10 x 1 x 1 bar, taken in m) of steel,
+    as MAPDL would write it: the .full's M and K are the elements' own (fe.assembly, consistent), the modes the
+    first 14 of that free problem (six rigid), no element stresses. No MAPDL is at hand to write the files."""
+    X, nodes, elem, routines = _archive("TetBeam.cdb")
+    cells, rows = cells_of("TetBeam.cdb", elem, routines, nodes)
+    steel = Material("steel", 2.1e11, 0.3, 7850.0)
+    M, K = full_mass(mass_matrix(Mesh(X, cells), steel.rho)), stiffness_matrix(Mesh(X, cells), steel)
+    lam, V = spla.eigsh(sp.csc_array(K), k=14, M=sp.csc_array(M), sigma=-1.0)
+    run = AnsysRun(source="tet.rst", full="tet.full", nodes=nodes, points=X, cells=cells,
+                   cell_material={t: np.ones(len(c), np.int64) for t, c in cells.items()},
+                   element_types={"SOLID187": len(elem)}, materials={1: {"EX": 2.1e11, "NUXY": 0.3, "DENS": 7850.0}},
+                   cell_materials={1}, units="User Defined", eigenvalues=lam, modes=V.reshape(len(X), 3, -1),
+                   corner_stress=None, M=sp.csr_array(M), K=sp.csr_array(K), constrained=np.zeros(3 * len(X), bool))
+    return run, _boundary_moments(X, cells)
+
+
+def _inertia(rho: float, moments, extra=None) -> np.ndarray:
+    """Principal moments of inertia about the centre of mass from int 1, int x, int x x^T (and point masses)."""
+    V, m1, m2 = (rho * np.asarray(q) for q in moments)
+    if extra is not None:
+        m, x = extra
+        V, m1, m2 = V + m, m1 + m * x, m2 + m * np.outer(x, x)
+    S = m2 - np.outer(m1, m1) / V
+    return np.linalg.eigvalsh(np.trace(S) * np.eye(3) - S)
+
+
+def test_a_solid187_run_reads_with_its_mass_inertia_and_frequencies(tet_run):
+    run, moments = tet_run
+    body = ansys.body_of("tet.rst", run)
+    assert [c.name for c in run_checks(body) if not c.passed] == []
+    assert body.mass == pytest.approx(7850.0 * 10.0, rel=ROUND_OFF)  # the 10 x 1 x 1 box the mesh fills
+    assert np.allclose(np.linalg.eigvalsh(body.I0), _inertia(7850.0, moments), rtol=ROUND_OFF)
+    assert np.allclose(body.eigenvalues, run.eigenvalues[6:], rtol=ROUND_OFF)  # the six rigid modes dropped
+    notes = " ".join(body.provenance.notes)
+    assert "cells 3913 tetra" in notes and "K of tet.full: the free body's" in notes
+    assert "give its mass, centre of mass and second moments within" in notes and "warning" not in notes
+    assert body.static_centrifugal is not None and body.fe.stress_nodal is None
+
+
+def test_a_point_mass_in_the_full_is_read_and_named(tet_run):
+    """MASS21 without rotary inertia adds m to UX, UY, UZ of its node in the .full's M (the kron form)."""
+    run, moments = tet_run
+    node, m = int(np.argmax(run.points[:, 0])), 500.0
+    M = run.M + sp.csr_array((np.full(3, m), (3 * node + np.arange(3), 3 * node + np.arange(3))), shape=run.M.shape)
+    lam, V = spla.eigsh(sp.csc_array(run.K), k=12, M=sp.csc_array(M), sigma=-1.0)
+    body = ansys.body_of("tet.rst", replace(run, M=M, eigenvalues=lam, modes=V.reshape(len(run.points), 3, -1),
+                                           element_types={"SOLID187": 3913, "MASS21": 1}))
+    assert body.mass == pytest.approx(7850.0 * 10.0 + m, rel=ROUND_OFF)
+    assert np.allclose(np.linalg.eigvalsh(body.I0), _inertia(7850.0, moments, (m, run.points[node])), rtol=ROUND_OFF)
+    assert "its solid elements' 78500 of it, 500 the .full's own from 1 MASS21" in " ".join(body.provenance.notes)

@@ -148,8 +148,8 @@ def test_a_box_in_each_solid_has_the_analytic_mass_cg_and_inertia_and_pyNastrans
     assert np.allclose(got.cg, BOX / 2, rtol=0, atol=ROUND * BOX.max())
     assert np.allclose(got.inertia, _box_inertia(exact), rtol=0, atol=ROUND * _box_inertia(exact).max())
     notes = nastran_props.checked("box.bdf", model, mass, points, True)
-    compared = "mass within" in notes[0] and "CG within" in notes[0]
-    assert compared == (kind != "CPYRAM") and "inertia" in notes[0]  # pyNastran's pyramid centroid is off
+    compared = all(f"{q} within" in notes[0] for q in ("mass", "CG", "inertia"))
+    assert compared == (kind != "CPYRAM") and "mass within" in notes[0]  # pyNastran's pyramid centroid is off
     assert ("pyNastran approximates" in notes[0]) == (kind == "CPYRAM")
 
 
@@ -239,3 +239,143 @@ def test_a_mismatch_with_pyNastrans_mass_properties_is_an_error_naming_both():
     with pytest.raises(BodyFileError, match=r"t\.bdf: mass properties: expected the assembled mass to agree with "
                                             r"pyNastran's .* got 6\.38006\d+e-05 against pyNastran's 6\.38e-05"):
         nastran_props.checked("t.bdf", model, mass, points, True)
+
+
+# ---------------------------------------------------------------- full reads: modes of the FE module as an OP2
+def _write_op2(path, model, points, lam, modes6) -> None:
+    """The model's geometry (PARAM,POST,-1) and a SOL 103 eigenvector table: eigenvalues ``lam`` and modes
+    (nm, n, 6) at the GRIDs 1..n, float32 as Nastran writes them."""
+    from pyNastran.op2.tables.oug.oug_eigenvectors import RealEigenvectorArray
+
+    n = len(points)
+    ev = RealEigenvectorArray.add_modal_case("OUGV1", np.column_stack([np.arange(1, n + 1), np.ones(n, int)]),
+                                             modes6.astype(np.float32), 1, np.arange(1, len(lam) + 1), lam,
+                                             np.sqrt(np.abs(lam)) / (2 * np.pi))
+    ev.table_code, ev.device_code, ev.approach_code = 7, 1, 21  # eigenvectors, as Nastran writes them
+    model.eigenvectors[1] = ev
+    model.write_op2(str(path), post=-1, endian=b"<")
+
+
+FLOAT32 = 2e-7  # the OP2 holds modes and eigenvalues in float32: sums of their squares good to a few 6e-8
+N_FLEX = 8
+
+
+@pytest.mark.parametrize("kind", list(CORNERS))
+def test_a_free_free_run_of_each_quadratic_solid_reads_with_its_mass_inertia_frequencies_and_checks(kind, tmp_path):
+    from ffrf_advisor.checks import run_checks
+    from ffrf_advisor.fe.assembly import stiffness_matrix
+    from ffrf_advisor.fe.material import Material
+    from ffrf_advisor.fe.modal import free_free_modes, rigid_modes
+    from ffrf_advisor.io import read_body
+
+    points, cells = _corner_cells(kind)
+    points, nastran, vtk = _quadratic(kind, points, cells)
+    mesh = Mesh(points, {QUADRATIC[kind]: np.array(vtk)})
+    modal = free_free_modes(stiffness_matrix(mesh, Material("steel", E, NU, RHO)), mass_matrix(mesh, RHO), points,
+                            N_FLEX)
+    n = len(points)
+    modes = np.zeros((6 + N_FLEX, n, 6))
+    modes[:, :, :3] = np.concatenate([rigid_modes(points).reshape(n, 3, 6), modal.Phi], axis=2).transpose(2, 0, 1)
+    _write_op2(tmp_path / "part.op2", _model(points, nastran, kind), points, np.r_[np.zeros(6), modal.eigenvalues],
+               modes)
+    body = read_body(tmp_path / "part.op2")
+    exact = float(np.float32(RHO)) * BOX.prod()  # the OP2 holds RHO in float32, the grids exactly (binary fractions)
+    assert body.mass == pytest.approx(exact, rel=ROUND)
+    assert np.allclose(np.linalg.eigvalsh(body.I0), np.sort(np.diag(_box_inertia(exact))), rtol=ROUND)
+    assert np.allclose(body.eigenvalues, modal.eigenvalues, rtol=FLOAT32)
+    checks = run_checks(body)
+    assert all(c.passed for c in checks), [(c.name, c.value, c.tolerance) for c in checks if not c.passed]
+    notes = " ".join(body.provenance.notes)
+    assert f"{len(nastran)} {kind}" in notes and "warning" not in notes
+
+
+def _skew(a: np.ndarray) -> np.ndarray:
+    return np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+
+
+def _spider_run(points, vtk, top, hub, tip, hub_mass, tip_mass):
+    """Free-free modes of the part with an RBE2 spider, by the FE module's K and Ms: the ``top`` grids' translations
+    and grid ``tip``'s six DOFs depend on grid ``hub``'s six (u = u_hub + theta_hub x (x - x_hub)); CONM2
+    (mass, 3 x 3 inertia) on hub and tip. Eigenvalues and modes (nm, n + 2, 6), mass-normalised."""
+    import scipy.linalg as sla
+    from ffrf_advisor.fe.assembly import stiffness_matrix
+    from ffrf_advisor.fe.material import Material
+
+    mesh = Mesh(points, {"tetra10": np.array(vtk)})
+    n = len(points)
+    nd = 3 * n + 12  # part translations, then hub's and tip's six DOFs
+    K, M = np.zeros((nd, nd)), np.zeros((nd, nd))
+    K[:3 * n, :3 * n] = stiffness_matrix(mesh, Material("steel", E, NU, RHO)).toarray()
+    M[:3 * n, :3 * n] = np.kron(mass_matrix(mesh, RHO).toarray(), np.eye(3))
+    for k, (m, J) in enumerate((hub_mass, tip_mass)):
+        M[3 * n + 6 * k:3 * n + 6 * k + 6, 3 * n + 6 * k:3 * n + 6 * k + 6] = np.block(
+            [[m * np.eye(3), np.zeros((3, 3))], [np.zeros((3, 3)), J]])
+    free = [i for i in range(n) if i not in set(top)]
+    T = np.zeros((nd, 3 * len(free) + 6))
+    for j, i in enumerate(free):
+        T[3 * i:3 * i + 3, 3 * j:3 * j + 3] = np.eye(3)
+    h = slice(3 * len(free), 3 * len(free) + 6)
+    rigid = lambda x: np.hstack([np.eye(3), -_skew(x - hub)])  # noqa: E731  u = u_hub - (x - x_hub)~ theta
+    for i in top:
+        T[3 * i:3 * i + 3, h] = rigid(points[i])
+    T[3 * n:3 * n + 6, h] = np.eye(6)
+    T[3 * n + 6:3 * n + 9, h] = rigid(tip)
+    T[3 * n + 9:3 * n + 12, h] = np.hstack([np.zeros((3, 3)), np.eye(3)])
+    lam, V = sla.eigh(T.T @ K @ T, T.T @ M @ T, subset_by_index=[0, 5 + N_FLEX])
+    full = T @ V
+    modes = np.zeros((len(lam), n + 2, 6))
+    modes[:, :n, :3] = full[:3 * n].T.reshape(-1, n, 3)
+    modes[:, n:] = full[3 * n:].T.reshape(-1, 2, 6)
+    return lam, modes
+
+
+def test_masses_on_an_rbe2_spider_are_carried_exactly_by_the_grids_recovered_motion(tmp_path):
+    """A CONM2 on the spider's independent grid and one on a dependent grid above it: rigid elements carry no
+    mass, and each CONM2 moves with its grid's motion in the OP2 (recovered by Nastran at dependent grids), so
+    the modes' generalised masses come out exactly; without the dependent grid's CONM2 they do not."""
+    from ffrf_advisor.checks import run_checks
+    from ffrf_advisor.io import read_body
+
+    points, cells = _corner_cells("CTETRA", counts=(2, 1, 1))
+    points, nastran, vtk = _quadratic("CTETRA", points, cells)
+    n = len(points)
+    hub, tip = np.array([20.0, 10.0, 25.0]), np.array([20.0, 10.0, 35.0])
+    top = [i for i in range(n) if points[i, 2] == BOX[2]]
+    part = RHO * BOX.prod()
+    hub_mass, tip_mass = (0.5 * part, np.diag([2e-3, 3e-3, 4e-3])), (0.8 * part, np.diag([5e-3, 1e-3, 2e-3]))
+    lam, modes = _spider_run(points, vtk, top, hub, tip, hub_mass, tip_mass)
+    lam[:6] = 0.0  # rigid: zero to round-off of the dense solve
+
+    def write(path, with_tip: bool):
+        all_points = np.vstack([points, hub, tip])
+        conm2 = [(n, hub_mass[0], _i6(hub_mass[1]))] + ([(n + 1, tip_mass[0], _i6(tip_mass[1]))] if with_tip else [])
+        model = _model(all_points, nastran, "CTETRA", conm2)
+        model.add_rbe2(800, n + 1, "123", [i + 1 for i in top])
+        model.add_rbe2(801, n + 1, "123456", [n + 2])
+        _write_op2(path, model, all_points, lam, modes)
+
+    write(tmp_path / "spider.op2", True)
+    body = read_body(tmp_path / "spider.op2")
+    rho32 = float(np.float32(RHO)) / RHO  # the OP2 holds RHO and the CONM2 in float32
+    masses = [(part * rho32, np.r_[BOX / 2], _box_inertia(part * rho32)), (hub_mass[0], hub, hub_mass[1]),
+              (tip_mass[0], tip, tip_mass[1])]
+    total = sum(m for m, _, _ in masses)
+    cg = sum(m * c for m, c, _ in masses) / total
+    I = sum(J + m * (np.dot(c - cg, c - cg) * np.eye(3) - np.outer(c - cg, c - cg)) for m, c, J in masses)
+    assert body.mass == pytest.approx(total, rel=FLOAT32)
+    assert np.allclose(np.linalg.eigvalsh(body.I0), np.linalg.eigvalsh(I), rtol=FLOAT32)
+    assert np.allclose(body.eigenvalues, lam[6:], rtol=FLOAT32)
+    checks = run_checks(body)
+    assert all(c.passed for c in checks), [(c.name, c.value, c.tolerance) for c in checks if not c.passed]
+    assert body.fe.rotary is not None and len(body.fe.rotary.nodes) == 2  # hub and tip carry rotary inertia
+    notes = " ".join(body.provenance.notes)
+    assert "warning" not in notes and "mass within" in notes
+
+    write(tmp_path / "dropped.op2", False)  # the same modes without the dependent grid's CONM2
+    dropped = read_body(tmp_path / "dropped.op2")
+    assert "warning: more than float32 round-off" in " ".join(dropped.provenance.notes)
+
+
+def _i6(J: np.ndarray) -> tuple:
+    """A CONM2's I11, I21, I22, I31, I32, I33 of an inertia tensor (off-diagonals -I21, ...)."""
+    return (J[0, 0], -J[1, 0], J[1, 1], -J[2, 0], -J[2, 1], J[2, 2])

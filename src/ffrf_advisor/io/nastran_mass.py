@@ -39,7 +39,7 @@ class NodalMass:
     extra_of: np.ndarray          # (k,) the grid index each moves with
     notes: list[str]
     what: str = "the assembled mass"
-    solids: list[tuple[str, np.ndarray, np.ndarray]] = field(default_factory=list)  # (cell, conn, mirrored)
+    solids: list[tuple[str, float, np.ndarray, np.ndarray]] = field(default_factory=list)  # cell, rho, conn, mirrored
 
 
 def assembled_mass(path, m, run: NastranModes) -> NodalMass:
@@ -54,10 +54,10 @@ def assembled_mass(path, m, run: NastranModes) -> NodalMass:
     cells = []
     for (cell, rho), (conns, eids) in solids.items():
         conn, mirrored = nastran_solids.oriented(cell, np.array(conns), run.points)
-        cells.append((cell, conn, mirrored))
+        cells.append((cell, rho, conn, mirrored))
         block = nastran_solids.solid_mass(path, run.points, cell, conn, np.array(eids), rho)
         Ms = Ms + sp.block_diag([block, sp.csr_array((k, k))]).tocsr()
-    mirrored = sum(int(c[2].sum()) for c in cells)
+    mirrored = sum(int(c[3].sum()) for c in cells)
     notes = [f"mass assembled from {', '.join(f'{v} {t}' for t, v in run.element_types.items())}"
              + (f"; {k} CONM2 with an offset CG as nodes moving rigidly with their grid" if k else "")
              + (f"; {mirrored} solids of the other handedness renumbered" if mirrored else "")]

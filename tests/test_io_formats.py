@@ -37,9 +37,10 @@ def _mesh_file(path: Path, body, extra_cells=(), stress=True, scale=None) -> Pat
 
 @pytest.mark.parametrize("suffix", [".vtu", ".xdmf", ".vtk"])
 def test_meshio_mesh_with_modes_gives_the_same_body(tmp_path, beam, suffix):
-    quads = [] if suffix == ".xdmf" else [("quad", np.array([[0, 1, 2, 3]]))]  # faces are ignored
+    quads = [] if suffix == ".xdmf" else [("quad", np.array([[0, 1, 2, 3]]))]  # a face: no mass, named
     path = _mesh_file(tmp_path / f"beam{suffix}", beam, extra_cells=quads)
     body = read_body(path, eigenvalues=beam.eigenvalues, density=STEEL.rho)
+    assert bool(quads) == ("cells without mass of their own: 1 quad" in " ".join(body.provenance.notes))
     for name in ("I0", "W1", "W2", "W3"):
         ref = getattr(beam, name)
         assert np.abs(getattr(body, name) - ref).max() <= 1e-12 * np.abs(ref).max(), name
@@ -52,9 +53,14 @@ def test_meshio_errors_name_the_field(tmp_path, beam):
         read_body(path, density=STEEL.rho)
     with pytest.raises(BodyFileError, match="eigenvalues: expected 16 finite"):
         read_body(path, eigenvalues=[1.0, 2.0], density=STEEL.rho)
+    wedge = meshio.Mesh(np.random.default_rng(1).random((18, 3)), [("wedge18", np.arange(18)[None])],
+                        point_data={"mode_1": np.ones((18, 3))})
+    meshio.write(tmp_path / "wedge.vtu", wedge)
+    with pytest.raises(BodyFileError, match="cells/wedge18: expected cell types the reader carries .*got wedge18"):
+        read_body(tmp_path / "wedge.vtu", eigenvalues=[1.0], density=1.0)
     tet = meshio.Mesh(np.eye(4, 3), [("tetra", np.array([[0, 1, 2, 3]]))], point_data={"mode_1": np.ones((4, 3))})
-    meshio.write(tmp_path / "tet.vtu", tet)
-    with pytest.raises(BodyFileError, match="cells/tetra"):
+    meshio.write(tmp_path / "tet.vtu", tet)  # its nodes in the wrong order: det J < 0
+    with pytest.raises(BodyFileError, match=r"cells: expected solid cells of positive volume .*element 0 \(tetra\)"):
         read_body(tmp_path / "tet.vtu", eigenvalues=[1.0], density=1.0)
 
 

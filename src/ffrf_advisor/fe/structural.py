@@ -138,7 +138,7 @@ class BeamSection:
 def _chunks(ne: int, per_element: int) -> Iterator[slice]:
     size = max(1, _CHUNK // per_element)
     for start in range(0, ne, size):
-        yield slice(start, start + size)
+        yield slice(start, min(start + size, ne))
 
 
 def _geometry(ref: Reference, coords: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -196,23 +196,26 @@ def beam_mass(points: np.ndarray, cell_type: str, conn: np.ndarray, section: Bea
              + I33[part, None, None] * np.eye(3) * ds.sum(axis=1)[:, None, None])
         skew = I22[part] != I33[part]
         if np.any(skew):
-            e2 = _second_axis(section.orientation, part, e1, ne)
+            e2 = _second_axis(section.orientation, part, e1, skew)
             T += (I22[part] - I33[part])[:, None, None] * np.einsum("eq,eqa,eqb->eab", ds, e2, e2)
         total = total + _assemble(len(points), conn[part], Me, rho * T)
     return total
 
 
-def _second_axis(orientation, part: slice, e1: np.ndarray, ne: int) -> np.ndarray:
-    """e2 (ne, nq, 3): the orientation vector without its part along the axis e1, unit."""
+def _second_axis(orientation, part: slice, e1: np.ndarray, skew: np.ndarray) -> np.ndarray:
+    """e2 (ne, nq, 3): the orientation vector without its part along the axis e1, unit; needed where ``skew``
+    (I22 != I33) only, elsewhere any unit vector."""
     if orientation is None:
         raise ValueError("a section with I22 != I33 needs an orientation")
-    v = np.broadcast_to(np.asarray(orientation, dtype=float), (ne, 3))[part]
+    v = np.broadcast_to(np.asarray(orientation, dtype=float), (part.stop - (part.start or 0), 3)) \
+        if np.ndim(orientation) == 1 else np.asarray(orientation, dtype=float)[part]
     normal = v[:, None, :] - np.einsum("eqa,ea->eq", e1, v)[..., None] * e1
     size = np.linalg.norm(normal, axis=-1)
-    if np.any(size <= 1e-6 * np.linalg.norm(v, axis=-1)[:, None]):
-        bad = int(np.argwhere(size <= 1e-6 * np.linalg.norm(v, axis=-1)[:, None])[0, 0])
-        raise ValueError(f"the orientation of beam {bad + (part.start or 0)} is (nearly) along its axis")
-    return normal / size[..., None]
+    bad = skew & np.any(size <= 1e-6 * np.linalg.norm(v, axis=-1)[:, None], axis=1)
+    if np.any(bad):
+        raise ValueError(f"the orientation of beam {int(np.argmax(bad)) + (part.start or 0)} is (nearly) along "
+                         "its axis")
+    return normal / np.where(size > 0, size, 1.0)[..., None]
 
 
 def point_mass(n: int, nodes: np.ndarray, mass: np.ndarray, inertia: np.ndarray | None = None) -> StructuralMass:

@@ -1,13 +1,14 @@
 """Meshes readable by meshio (VTU, VTK, XDMF, MED, Gmsh) that carry mode shapes as point data.
 
 Point data ``mode_1`` .. ``mode_n`` (n x 3 each), optional ``von_mises_1`` ..
-``von_mises_n``; field data ``eigenvalues`` (or the --eigenvalues option) and
+``von_mises_n``, and ``rotation_1`` .. ``rotation_n`` (n x 3, small rotations) where nodes carry rotary
+inertia (theory 3b); field data ``eigenvalues`` (or the --eigenvalues option) and
 ``density`` (or --density), optional ``young`` and ``poisson`` (or the options)
 and ``units_si`` (kg, m, s per mass, length and time unit: t-mm-N-s is 1000,
-0.001, 1, the only units read). The consistent mass matrix is assembled from the
-solid cells the FE module supports (hexahedron, hexahedron20,
-hexahedron27); lower-dimensional cells (boundary faces, lines, points) are
-ignored; any other solid cell is an error naming its type.
+0.001, 1, the only units read). The mass comes from the cells (``meshio_cells``:
+solids of every type the FE module has, shells, beams and point masses with their
+data); cells without mass of their own are named in a note, any other cell type
+is an error naming it.
 
 VTU is written too (``write``, format ``vtu``): the mesh with each mode
 and its nodal von Mises stress, the eigenvalues and frequencies, density,
@@ -25,19 +26,20 @@ import re
 from dataclasses import replace
 
 import numpy as np
+import scipy.sparse as sp
 
-from ..body import CASES, FlexibleBody, Provenance
+from ..body import CASES, FlexibleBody, ModalFE, NodalRotary, Provenance
 from ..errors import BodyFileError, FFRFError
-from ..fe.assembly import mass_matrix
-from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
-from ..fe.elements import ELEMENT_TYPES
+from ..fe.assembly import full_mass, mass_matrix
 from ..fe.material import Material
 from ..fe.mesh import Mesh
+from ..fe.modal import mode_signs
+from ..fe_body import fe_body, with_centrifugal_response
 from . import guard
+from .meshio_cells import body_cells
 from .atomic import atomic_path
 from .limits import check_file_size, check_reference
 
-LOWER_DIMENSIONAL = re.compile(r"^(vertex|line\d*|triangle\d*|quad\d*|polygon)$")
 _MODE = re.compile(r"^mode_(\d+)$")
 
 
@@ -50,26 +52,6 @@ def _numbers(path, field: str, value, n: int | None = None) -> np.ndarray:
         raise BodyFileError(path, field, f"{n if n is not None else 'some'} finite numbers",
                             f"{len(a)} values" + ("" if np.all(np.isfinite(a)) else " with NaN/inf"))
     return a
-
-
-def _solid_mesh(path, m) -> Mesh:
-    cells = {}
-    for block in m.cells:
-        if block.type in ELEMENT_TYPES:
-            cells[block.type] = np.concatenate([cells[block.type], block.data]) if block.type in cells \
-                else np.asarray(block.data, dtype=np.int64)
-        elif not LOWER_DIMENSIONAL.match(block.type):
-            raise BodyFileError(path, f"cells/{block.type}",
-                                f"solid cells of a supported type ({', '.join(ELEMENT_TYPES)})", block.type)
-    if not cells:
-        raise BodyFileError(path, "cells", f"solid cells ({', '.join(ELEMENT_TYPES)})", "none")
-    points = np.asarray(m.points, dtype=float)
-    if points.ndim != 2 or points.shape[1] != 3 or not np.all(np.isfinite(points)):
-        raise BodyFileError(path, "points", "finite 3D coordinates", str(points.shape))
-    for cell_type, conn in cells.items():
-        if conn.size and (conn.min() < 0 or conn.max() >= len(points)):
-            raise BodyFileError(path, f"cells/{cell_type}", f"node indices in [0, {len(points)})")
-    return Mesh(points, cells)
 
 
 def _modes(path, m, n_nodes: int) -> tuple[list[int], np.ndarray]:
@@ -87,35 +69,109 @@ def _modes(path, m, n_nodes: int) -> tuple[list[int], np.ndarray]:
 def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = None, young: float | None = None,
          poisson: float | None = None) -> FlexibleBody:
     """A modal body from a meshio mesh with mode fields (t-mm-N-s); with ``young`` and ``poisson`` (options or
-    field data) the body carries its material, static centrifugal response and geometric stiffness (theory 9,
-    11)."""
+    field data) a body of solids and point masses without inertia carries its material, static centrifugal
+    response and geometric stiffness (theory 9, 11)."""
     m = guard.run(path, "meshio", _meshio_read, path)
     units = _units_note(path, m)
     material = _material(path, *(_scalar(path, m, k, v) for k, v in (("young", young), ("poisson", poisson))))
-    mesh = _solid_mesh(path, m)
+    cells = body_cells(path, m)
+    mesh = Mesh(cells.points, cells.solids)
     numbers, Phi = _modes(path, m, mesh.n_nodes)
     nf = len(numbers)
     lam = _numbers(path, "eigenvalues", _given(path, m, "eigenvalues", eigenvalues), nf)
-    rho = _numbers(path, "density", _given(path, m, "density", density), 1)[0]
-    if rho <= 0 or np.any(lam <= 0):
-        raise BodyFileError(path, "density" if rho <= 0 else "eigenvalues", "positive values (flexible modes only)")
-    Ms = mass_matrix(mesh, rho)
-    Phi_n, stress, scale = mass_normalised_file_modes(Ms, Phi, _stress(path, m, mesh.n_nodes, numbers), mesh.points)
+    rho = _numbers(path, "density", _given(path, m, "density", density), 1)[0] if cells.distributed else 0.0
+    bad_density = cells.distributed and rho <= 0
+    if bad_density or np.any(lam <= 0):
+        raise BodyFileError(path, "density" if bad_density else "eigenvalues", "positive values (flexible modes only)")
+    Ms, rotary, notes = _mass(path, m, cells, mesh, rho, numbers)
+    Phi, rotary, stress, scale = normalised(Ms, Phi, rotary, _stress(path, m, mesh.n_nodes, numbers), mesh.points)
     provenance = Provenance(
         source=str(path), mass_matrix="consistent",
-        method="consistent mass assembled from the mesh; nodal sums (theory section 3)",
+        method="consistent mass assembled from the mesh; nodal sums (theory section 3"
+               + (", 3b)" if rotary is not None else ")"),
         notes=(f"{units}: coordinates mm, density {rho:g} t/mm^3, "
                f"eigenvalues 1/s^2; modes mass-normalised (file scale factors "
                f"{', '.join(f'{1 / s:.4g}' for s in scale[:4])}{' ...' if nf > 4 else ''})",
-               f"{mesh.n_cells} x {', '.join(mesh.cells)}, {mesh.n_nodes} nodes"))
+               f"{mesh.n_cells} solid cells, {mesh.n_nodes} nodes", *notes))
+    given = "--young, --poisson" if young is not None else "field data"
+    return _body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi, lam, stress, rotary, provenance,
+                 None if material is None else (replace(material, rho=rho), given))
+
+
+def _body(name: str, mesh: Mesh, Ms, Phi: np.ndarray, lam: np.ndarray, stress, rotary: NodalRotary | None,
+          provenance: Provenance, material: tuple[Material, str] | None) -> FlexibleBody:
+    """The body in its CoM principal frame; with the material (and where it was given) and no rotary nodes, its
+    static centrifugal response and geometric stiffness (theory 9, 11)."""
     if material is not None:
-        material = replace(material, rho=rho)
-        given = "--young, --poisson" if young is not None else "field data"
-        provenance = provenance.with_note(f"material E={material.E:g}, nu={material.nu:g} ({given}): static "
-                                          "centrifugal response and geometric stiffness computed")
-    body = fe_body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi_n, lam, provenance, stress=stress,
-                   material=material)
-    return body if material is None else with_centrifugal_response(body)
+        (mat, given), material = material, None
+        if rotary is not None or not mesh.cells:
+            why = "nodes with rotary inertia need 6-DOF stiffness" if rotary is not None else "no solid cells"
+            provenance = provenance.with_note(f"material E={mat.E:g}, nu={mat.nu:g} not used for the static "
+                                              f"centrifugal response: {why}")
+        else:
+            material = mat
+            provenance = provenance.with_note(f"material E={mat.E:g}, nu={mat.nu:g} ({given}): static "
+                                              "centrifugal response and geometric stiffness computed")
+    if rotary is None:
+        body = fe_body(name, mesh, Ms, Phi, lam, provenance, stress=stress, material=material)
+        return body if material is None else with_centrifugal_response(body)
+    fe = ModalFE(mesh, Ms, Phi, stress_nodal=stress, rotary=rotary)
+    return FlexibleBody(name=name, integrals=fe.integrals(), eigenvalues=lam, provenance=provenance, fe=fe,
+                        sigma_max=None if stress is None else stress.max(axis=0)).in_principal_frame()[0]
+
+
+def _mass(path, m, cells, mesh: Mesh, rho: float, numbers: list[int]):
+    """Ms (n x n), the nodes with rotary inertia with their file rotations (or None) and notes (theory 3b)."""
+    n = mesh.n_nodes
+    try:
+        Ms = mass_matrix(mesh, rho) if mesh.cells else sp.csr_array((n, n))
+    except ValueError as e:
+        raise BodyFileError(path, "cells", "solid cells of positive volume in VTK node order", str(e)) from None
+    notes = cells.notes()
+    extra = cells.structural_mass(path, rho)
+    if extra is None:
+        rotations = _rotations(path, m, numbers, n, needed=0)
+        return Ms, None, notes + (["point data rotation_* not used: no node carries rotary inertia"]
+                                  if rotations is not None else [])
+    Ms = sp.csr_array(Ms + extra.Ms)
+    nodes = np.flatnonzero(np.abs(extra.J).max(axis=(1, 2)) > 0)
+    rotations = _rotations(path, m, numbers, n, needed=len(nodes))
+    if not len(nodes):
+        return Ms, None, notes
+    return Ms, NodalRotary(nodes, extra.J[nodes], rotations[nodes]), notes
+
+
+def _rotations(path, m, numbers: list[int], n: int, needed: int) -> np.ndarray | None:
+    """Point data rotation_1 .. rotation_n (n, 3, nf), or None where absent; refused absent where ``needed``
+    nodes carry rotary inertia."""
+    keys = [f"rotation_{p}" for p in numbers]
+    present = [k in m.point_data for k in keys]
+    if not any(present) and not needed:
+        return None
+    if not all(present):
+        raise BodyFileError(path, f"point_data/{keys[present.index(False)]}", "mode rotations rotation_1 .. "
+                            f"rotation_{len(keys)} (theory 3b) for the {needed} nodes with rotary inertia (shells, "
+                            "beams, point masses with inertia)" if needed else
+                            "rotations for every mode or none", "missing")
+    R = np.stack([np.asarray(m.point_data[k], dtype=float).reshape(n, -1) for k in keys], axis=-1)
+    if R.shape[1] != 3 or not np.all(np.isfinite(R)):
+        raise BodyFileError(path, "point_data/rotation_*", f"finite ({n}, 3) vectors per mode", str(R.shape))
+    return R
+
+
+def normalised(Ms, Phi: np.ndarray, rotary: NodalRotary | None, stress: np.ndarray | None, X: np.ndarray):
+    """Modes of a file scaled to unit modal mass Phi^T M Phi + Phi*^T J Phi* (theory 3b), signed by
+    ``fe.modal.mode_signs``, with their rotations and nodal stresses scaled alike. Returns (Phi, rotary, stress,
+    scale), ``scale`` the file modes' sqrt(modal mass)."""
+    M, S = full_mass(Ms), Phi.reshape(-1, Phi.shape[2])
+    modal = np.einsum("ip,ip->p", S, M @ S)
+    if rotary is not None:
+        modal = modal + np.einsum("iap,iab,ibp->p", rotary.Phi, rotary.J, rotary.Phi)
+    scale = np.sqrt(modal)
+    factor = mode_signs(S, M, X) / scale
+    return ((S * factor).reshape(Phi.shape),
+            None if rotary is None else NodalRotary(rotary.nodes, rotary.J, rotary.Phi * factor),
+            None if stress is None else stress / scale, scale)
 
 
 PARSE_FACTOR = 8  # bytes meshio holds per byte of file while parsing (XML trees, base64, decompressed data)
@@ -127,7 +183,7 @@ def _meshio_read(path):
     check_file_size(path, PARSE_FACTOR)
     if str(path).lower().endswith((".xdmf", ".xmf")):
         _check_xdmf_references(path)
-    import meshio
+    meshio = meshio_module()
 
     try:
         with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
@@ -135,6 +191,20 @@ def _meshio_read(path):
     except (Exception, SystemExit) as e:  # meshio raises many kinds on bad input, even SystemExit
         got = "not parseable as its suffix's format" if isinstance(e, SystemExit) else f"{type(e).__name__}: {e}"
         raise BodyFileError(path, "file", "a mesh meshio can read", got[:200]) from None
+
+
+MISSING_DIMENSIONS = {"wedge15": 3, "pyramid13": 3}  # meshio 5.3.5 knows their node counts, not their dimension
+
+
+def meshio_module():
+    """meshio, able to hold wedge15 and pyramid13 cells: its table of topological dimensions lacks them, so any
+    mesh with them fails to build, read or write with KeyError (meshio issue 1247, open in 5.3.5)."""
+    import meshio
+    from meshio import _mesh
+
+    for cell_type, dim in MISSING_DIMENSIONS.items():
+        _mesh.topological_dimension.setdefault(cell_type, dim)
+    return meshio
 
 
 def _check_xdmf_references(path) -> None:
@@ -209,7 +279,7 @@ def _stress(path, m, n_nodes: int, numbers: list[int]) -> np.ndarray | None:
 
 def write(body: FlexibleBody, path, overwrite: bool = False) -> None:
     """The body as a VTU/VTK mesh (module docstring), in t-mm-N-s, written atomically."""
-    import meshio
+    meshio = meshio_module()
     from ..centrifugal import static_centrifugal
     from ..units import TMM
     if body.fe is None:

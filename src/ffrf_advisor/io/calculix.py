@@ -28,7 +28,7 @@ from ..fe.stress import von_mises
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from .calculix_deck import Deck, deck_density, deck_material, read_deck, text_lines, write_deck  # noqa: F401
 from .calculix_frd import ASCII_DIGITS, NAMES, SOLIDS, Frd
-from .calculix_mass import carried_masses, check_total_mass, stored_matrices, with_point_masses
+from .calculix_mass import carried_masses, check_modal_masses, check_total_mass, stored_matrices, with_point_masses
 
 RIGID_TOL = 1e-6  # |lambda| / largest |lambda| below which a mode is rigid
 N_RIGID = 6
@@ -197,10 +197,11 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     Ms, K, mesh, Phi, stress, mass_notes = _mass(frd, deck, Mesh(points, cells), Phi, stress, index, stem)
     notes += mass_notes
     if rigid.sum() == N_RIGID:
-        total = check_total_mass(stem.with_suffix(".dat"), float(Ms.sum()), mass_notes[0])
+        total = check_total_mass(stem.with_suffix(".dat"), float(Ms.sum()), mass_notes[0], deck)
         notes += [total] if total else []
-    Phi_n, stress, _ = mass_normalised_file_modes(Ms, Phi[:, :, flex], None if stress is None else stress[:, flex],
-                                                 mesh.points)
+    Phi_n, stress, scale = mass_normalised_file_modes(Ms, Phi[:, :, flex],
+                                                      None if stress is None else stress[:, flex], mesh.points)
+    check_modal_masses(frd.path, scale, mass_notes[0])
     material = _deck_material_for(deck, mesh)
     if material is not None:
         notes.append("material from the deck (*ELASTIC, *DENSITY): static centrifugal response and geometric "

@@ -149,14 +149,14 @@ def _bricks(form: str) -> list[list[tuple]]:
     return tets
 
 
-def _elements(form: str, quadratic: bool, apex_in_s: bool = False):
-    """Points, node numbers and MAPDL element rows (10 header words, then the nodes) of the cube in ``form``;
-    SOLID186 lists the mid-points of the brick's edges (a collapsed edge's is its node). ``apex_in_s``: a
-    tetrahedron's S written with its apex, as MAPDL's own archives hold it."""
+def _elements(form: str, quadratic: bool, apex_in_s: bool = False, cubes: int = 1):
+    """Points, node numbers and MAPDL element rows (10 header words, then the nodes) of ``cubes`` unit cubes in a
+    row along x in ``form``; SOLID186 lists the mid-points of the brick's edges (a collapsed edge's is its node).
+    ``apex_in_s``: a tetrahedron's S written with its apex, as MAPDL's own archives hold it."""
     numbers: dict[tuple, int] = {}
     rows = []
-    for k, corners in enumerate(_bricks(form)):
-        c = np.array(corners, float)
+    bricks = [np.array(b, float) + (i, 0, 0) for i in range(cubes) for b in _bricks(form)]
+    for k, c in enumerate(bricks):
         pts = list(c) + ([(c[a] + c[b]) / 2 for a, b in EDGES20] if quadratic else [])
         listed = [numbers.setdefault(tuple(np.round(p, 9)), len(numbers) + 1) for p in pts]
         if apex_in_s:
@@ -252,23 +252,33 @@ def test_the_cli_refuses_a_run_of_shells_or_beams_in_one_line_naming_them(tmp_pa
     assert f"got {name} (40 elements)" in line
 
 
-# ---------------------------------------------------------------- a run of SOLID187 through the reader
-@pytest.fixture(scope="module")
-def tet_run():
-    """A free-free run on the shipped TetBeam mesh (3913 SOLID187, a 10 x 1 x 1 bar, taken in m) of steel,
-    as MAPDL would write it: the .full's M and K are the elements' own (fe.assembly, consistent), the modes the
-    first 14 of that free problem (six rigid), no element stresses. No MAPDL is at hand to write the files."""
-    X, nodes, elem, routines = _archive("TetBeam.cdb")
-    cells, rows = cells_of("TetBeam.cdb", elem, routines, nodes)
+# ---------------------------------------------------------------- runs through the reader
+def _run(name: str, X: np.ndarray, nodes: np.ndarray, elem, routines: np.ndarray, k: int = 14):
+    """A free-free run of steel (lengths taken in m) as MAPDL would write it: the .full's M and K the elements'
+    own (fe.assembly, consistent), the modes the first ``k`` of that free problem (six rigid), no element
+    stresses (no MAPDL is at hand to write such files); and the boundary's volume and moments. Nodes no element
+    uses (sector.cdb has 425) are left out: they have no DOFs in a .full."""
+    cells, _ = cells_of(name, elem, routines, nodes)
+    used = np.unique(np.concatenate([c.ravel() for c in cells.values()]))
+    X, nodes = X[used], nodes[used]
+    cells, _ = cells_of(name, elem, routines, nodes)
     steel = Material("steel", 2.1e11, 0.3, 7850.0)
     M, K = full_mass(mass_matrix(Mesh(X, cells), steel.rho)), stiffness_matrix(Mesh(X, cells), steel)
-    lam, V = spla.eigsh(sp.csc_array(K), k=14, M=sp.csc_array(M), sigma=-1.0)
-    run = AnsysRun(source="tet.rst", full="tet.full", nodes=nodes, points=X, cells=cells,
+    lam, V = spla.eigsh(sp.csc_array(K), k=k, M=sp.csc_array(M), sigma=-1.0)
+    names = [f"SOLID{int(t)}" for t in routines]
+    run = AnsysRun(source=name, full=name.replace(".rst", ".full"), nodes=nodes, points=X, cells=cells,
                    cell_material={t: np.ones(len(c), np.int64) for t, c in cells.items()},
-                   element_types={"SOLID187": len(elem)}, materials={1: {"EX": 2.1e11, "NUXY": 0.3, "DENS": 7850.0}},
-                   cell_materials={1}, units="User Defined", eigenvalues=lam, modes=V.reshape(len(X), 3, -1),
-                   corner_stress=None, M=sp.csr_array(M), K=sp.csr_array(K), constrained=np.zeros(3 * len(X), bool))
+                   element_types={t: names.count(t) for t in set(names)},
+                   materials={1: {"EX": 2.1e11, "NUXY": 0.3, "DENS": 7850.0}}, cell_materials={1},
+                   units="User Defined", eigenvalues=lam, modes=V.reshape(len(X), 3, -1), corner_stress=None,
+                   M=sp.csr_array(M), K=sp.csr_array(K), constrained=np.zeros(3 * len(X), bool))
     return run, _boundary_moments(X, cells)
+
+
+@pytest.fixture(scope="module")
+def tet_run():
+    """The shipped TetBeam mesh (3913 SOLID187, a 10 x 1 x 1 bar) as a run."""
+    return _run("tet.rst", *_archive("TetBeam.cdb"))
 
 
 def _inertia(rho: float, moments, extra=None) -> np.ndarray:
@@ -283,15 +293,35 @@ def _inertia(rho: float, moments, extra=None) -> np.ndarray:
 
 def test_a_solid187_run_reads_with_its_mass_inertia_and_frequencies(tet_run):
     run, moments = tet_run
-    body = ansys.body_of("tet.rst", run)
-    assert [c.name for c in run_checks(body) if not c.passed] == []
+    body = _read_and_checked(run, moments, "3913 tetra")
     assert body.mass == pytest.approx(7850.0 * 10.0, rel=ROUND_OFF)  # the 10 x 1 x 1 box the mesh fills
+
+
+@pytest.mark.parametrize("form,cells", [("prism", "12 wedge15"), ("pyramid", "36 pyramid13"),
+                                        ("tetrahedron", "36 tetra10")])
+def test_a_run_of_degenerate_solid186_reads_with_the_bar_s_mass_and_inertia(form, cells):
+    """Six unit cubes in a row, each split into one degenerate SOLID186 form, as a run."""
+    body = _read_and_checked(*_run("bar.rst", *_elements(form, True, cubes=6)), cells)
+    assert body.mass == pytest.approx(7850.0 * 6.0, rel=ROUND_OFF)
+
+
+def test_a_run_of_solid185_bricks_and_prisms_reads_with_the_mass_of_its_boundary():
+    _read_and_checked(*_run("sector.rst", *_archive("sector.cdb")), "101 hexahedron, 4 wedge")
+
+
+def _read_and_checked(run, moments, cells: str):
+    """The run through the reader: every check passing, I0 the boundary's, the run's flexible eigenvalues, the
+    cells named, the mass note agreeing, the static centrifugal response there and no stresses."""
+    body = ansys.body_of(run.source, run)
+    assert [c.name for c in run_checks(body) if not c.passed] == []
+    assert body.mass == pytest.approx(7850.0 * moments[0], rel=ROUND_OFF)
     assert np.allclose(np.linalg.eigvalsh(body.I0), _inertia(7850.0, moments), rtol=ROUND_OFF)
     assert np.allclose(body.eigenvalues, run.eigenvalues[6:], rtol=ROUND_OFF)  # the six rigid modes dropped
     notes = " ".join(body.provenance.notes)
-    assert "cells 3913 tetra" in notes and "K of tet.full: the free body's" in notes
+    assert f"cells {cells}" in notes and f"K of {run.full}: the free body's" in notes
     assert "give its mass, centre of mass and second moments within" in notes and "warning" not in notes
     assert body.static_centrifugal is not None and body.fe.stress_nodal is None
+    return body
 
 
 def test_a_point_mass_in_the_full_is_read_and_named(tet_run):

@@ -12,7 +12,9 @@ from ffrf_advisor.checks import run_checks
 from ffrf_advisor.cli import app
 from ffrf_advisor.errors import BodyFileError
 from ffrf_advisor.fe.material import STEEL
-from ffrf_advisor.fe.mesh import box_mesh
+from ffrf_advisor.fe.assembly import mass_matrix, stiffness_matrix
+from ffrf_advisor.fe.mesh import Mesh, box_mesh
+from ffrf_advisor.fe.modal import free_free_modes
 from ffrf_advisor.fe.split import box_split_mesh
 from ffrf_advisor.fe.structural import BeamSection, StructuralMass, beam_mass, point_mass, shell_mass
 from ffrf_advisor.fe_body import modal_body
@@ -295,3 +297,40 @@ def test_vtu_writer_round_trip_and_refusal(tmp_path):
     again = read_body(h5)
     assert np.abs(again.I0 - shell.I0).max() <= ROUND * np.abs(shell.I0).max()
     assert np.abs(again.integrals.rotary.modal_mass - shell.integrals.rotary.modal_mass).max() <= ROUND
+
+
+def test_a_gmsh_mesh_with_its_points_edges_and_faces(tmp_path):
+    """gmsh meshes a box in tetra10 and writes every entity (its corner points, edges and faces as vertex,
+    line3 and triangle6 cells); with the solver's modes as node data in that .msh, the body has rho V and the
+    box's I0 (exact: straight-edged tetrahedra), passes every check, and names the cells that carry no mass."""
+    gmsh = pytest.importorskip("gmsh")
+    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.occ.addBox(0, 0, 0, *SIZE)
+        gmsh.model.occ.synchronize()
+        gmsh.model.mesh.setSize(gmsh.model.getEntities(0), 20.0)
+        gmsh.option.setNumber("Mesh.SaveAll", 1)
+        gmsh.model.mesh.generate(3)
+        gmsh.model.mesh.setOrder(2)
+        gmsh.write(str(tmp_path / "box.msh"))
+    finally:
+        gmsh.finalize()
+    meshio = meshio_module()
+    m = meshio.read(tmp_path / "box.msh")
+    tets = np.concatenate([c.data for c in m.cells if c.type == "tetra10"])
+    mesh = Mesh(m.points, {"tetra10": tets})
+    ref = modal_body(mesh, STEEL, 3)
+    modes = free_free_modes(stiffness_matrix(mesh, STEEL), mass_matrix(mesh, STEEL.rho), mesh.points, 3)
+    m.point_data |= {f"mode_{p + 1}": modes.Phi[:, :, p] for p in range(3)}  # the file's axes
+    m.cell_data["gmsh:physical"] = [np.zeros(len(c.data), int) for c in m.cells]  # meshio's writer wants them
+    meshio.write(tmp_path / "modes.msh", m, file_format="gmsh")
+    body = read_body(tmp_path / "modes.msh", eigenvalues=ref.eigenvalues, density=STEEL.rho)
+    mass = STEEL.rho * SIZE.prod()
+    assert body.mass == pytest.approx(mass, rel=ROUND)
+    assert _principal(body.I0) == pytest.approx(_box_inertia(mass, SIZE), rel=ROUND)
+    _same_invariants(body, ref)
+    _passes(body)
+    counts = {t: sum(len(c.data) for c in m.cells if c.type == t) for t in ("vertex", "line3", "triangle6")}
+    assert (f"cells without mass of their own: {counts['vertex']} vertex, {counts['line3']} line3, "
+            f"{counts['triangle6']} triangle6") in " ".join(body.provenance.notes)

@@ -13,7 +13,7 @@ pytest.importorskip("pyNastran", reason="the Nastran reader's optional extra (pi
 from ffrf_advisor.errors import BodyFileError  # noqa: E402
 from ffrf_advisor.io import nastran, nastran_mass, nastran_props  # noqa: E402
 
-from .test_nastran_solids import (BOX, CORNERS, RHO, ROUND, _box_inertia, _corner_cells, _model,  # noqa: E402
+from .test_nastran_solids import (BOX, CORNERS, E, NU, RHO, ROUND, _box_inertia, _corner_cells, _model,  # noqa: E402
                                   _quadratic, _run)
 
 BEAM = Path(__file__).resolve().parents[2] / "shared" / "data" / "nastran" / "beam_modes_m1.op2"
@@ -70,3 +70,63 @@ def test_a_conm2_in_a_turned_frame_keeps_its_inertia():
     assert np.allclose(mass.J[0], np.diag([2e-3, 1e-3, 3e-3]), rtol=1e-12)  # I11 about x' = y
     note = nastran_props.checked("c.bdf", model, mass, points, True)[0]
     assert "1 CONM2" in note and "mass within" in note
+
+
+def _plate_model(quadratic: bool):
+    """A 40 x 20 plate, thickness 2, half CQUAD4 (CQUAD8) and half CTRIA3 (CTRIA6), PSHELL with MAT1 RHO."""
+    from cpylog import SimpleLogger
+    from pyNastran.bdf.bdf import BDF
+
+    step = 5.0 if quadratic else 10.0  # quadratic elements take every other grid as a mid-side grid
+    xs, ys = np.arange(0, 40.0 + step / 2, step), np.arange(0, 20.0 + step / 2, step)
+    grid = {(i, j): k + 1 for k, (i, j) in enumerate((i, j) for j in range(len(ys)) for i in range(len(xs)))}
+    model = BDF(log=SimpleLogger(level="critical"))
+    for (i, j), g in grid.items():
+        model.add_grid(g, [xs[i], ys[j], 0.0])
+    model.add_mat1(1, E, None, NU, rho=RHO)
+    model.add_pshell(1, mid1=1, t=2.0, mid2=1)
+    s = 2 if quadratic else 1
+    for e, (i, j) in enumerate((i, j) for i in range(0, len(xs) - 1, s) for j in range(0, len(ys) - 1, s)):
+        c = [grid[i, j], grid[i + s, j], grid[i + s, j + s], grid[i, j + s]]
+        if i < (len(xs) - 1) // 2:
+            mids = [grid[i + 1, j], grid[i + 2, j + 1], grid[i + 1, j + 2], grid[i, j + 1]] if quadratic else []
+            (model.add_cquad8 if quadratic else model.add_cquad4)(10 * e + 1, 1, c + mids)
+        else:
+            for t, (a, b, d) in enumerate(((0, 1, 2), (0, 2, 3))):
+                tri = [c[a], c[b], c[d]]
+                if quadratic:
+                    corner = [(i, j), (i + 2, j), (i + 2, j + 2), (i, j + 2)]
+                    edges = ((a, b), (b, d), (d, a))
+                    tri += [grid[tuple((np.add(corner[p], corner[q]) // 2).tolist())] for p, q in edges]
+                (model.add_ctria6 if quadratic else model.add_ctria3)(10 * e + 2 + t, 1, tri)
+    model.cross_reference()
+    return model
+
+
+@pytest.mark.parametrize("quadratic", [False, True])
+def test_a_plate_of_quads_and_triangles_has_the_analytic_mass_and_pyNastrans_properties(quadratic):
+    model = _plate_model(quadratic)
+    gids = np.array(sorted(model.nodes))
+    points = np.array([model.nodes[g].get_position() for g in gids])
+    types = {}
+    for e in model.elements.values():
+        types[e.type] = types.get(e.type, 0) + 1
+    run = _run(points, types)
+    run.grids = gids
+    mass = nastran_mass.assembled_mass("plate.bdf", model, run)
+    got = nastran_props.of_nodal_mass(mass, points)
+    exact = RHO * 40.0 * 20.0 * 2.0
+    assert got.mass == pytest.approx(exact, rel=ROUND)
+    assert np.allclose(got.cg, [20.0, 10.0, 0.0], rtol=0, atol=ROUND * 40)
+    assert np.abs(mass.J).max() == 0  # shells lumped without rotary inertia (as Nastran's lumped mass)
+    note = nastran_props.checked("plate.bdf", model, mass, points, True)[0]
+    assert all(f"{q} within" in note for q in ("mass", "CG", "inertia")), note
+
+
+def test_a_model_over_the_element_limit_is_not_compared_and_says_so(monkeypatch):
+    points, cells = _corner_cells("CTETRA")
+    model = _model(points, cells, "CTETRA")
+    mass = nastran_mass.assembled_mass("t.bdf", model, _run(points, {"CTETRA": len(cells)}))
+    monkeypatch.setattr(nastran_props, "MAX_ELEMENTS", len(cells) - 1)
+    note = nastran_props.checked("t.bdf", model, mass, points, True)[-1]
+    assert note.startswith(f"pyNastran's mass properties not compared: {len(cells)} elements")

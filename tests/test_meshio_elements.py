@@ -334,3 +334,22 @@ def test_a_gmsh_mesh_with_its_points_edges_and_faces(tmp_path):
     counts = {t: sum(len(c.data) for c in m.cells if c.type == t) for t in ("vertex", "line3", "triangle6")}
     assert (f"cells without mass of their own: {counts['vertex']} vertex, {counts['line3']} line3, "
             f"{counts['triangle6']} triangle6") in " ".join(body.provenance.notes)
+
+
+def test_section_data_as_field_data(tmp_path):
+    """One thickness for all shells as field data (a VTU's <FieldData>, as the VTU writer adds it) gives the
+    same body as the thickness per cell; a field with the wrong count is refused naming it."""
+    from ffrf_advisor.io.meshio_modes import _add_field_data
+
+    points, cells = _plate("quad")
+    T, R = _synthetic_modes(points, shell_mass(points, "quad", cells, 6.0, STEEL.rho))
+    per_cell = _write(tmp_path / "cell.vtu", points, [("quad", cells)], T, R, {"thickness": [np.full(len(cells),
+                                                                                                      6.0)]})
+    uniform = _write(tmp_path / "field.vtu", points, [("quad", cells)], T, R)
+    _add_field_data(uniform, {"thickness": np.array([6.0])})
+    a, b = (read_body(p, eigenvalues=LAM, density=STEEL.rho) for p in (per_cell, uniform))
+    assert np.array_equal(a.I0, b.I0) and np.array_equal(a.W2, b.W2)
+    wrong = _write(tmp_path / "wrong.vtu", points, [("quad", cells)], T, R)
+    _add_field_data(wrong, {"thickness": np.array([6.0, 7.0])})
+    with pytest.raises(BodyFileError, match="field_data/thickness: expected 1 number for all cells, got 2"):
+        read_body(wrong, eigenvalues=LAM, density=STEEL.rho)

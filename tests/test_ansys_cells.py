@@ -335,3 +335,19 @@ def test_a_point_mass_in_the_full_is_read_and_named(tet_run):
     assert body.mass == pytest.approx(7850.0 * 10.0 + m, rel=ROUND_OFF)
     assert np.allclose(np.linalg.eigvalsh(body.I0), _inertia(7850.0, moments, (m, run.points[node])), rtol=ROUND_OFF)
     assert "its solid elements' 78500 of it, 500 the .full's own from 1 MASS21" in " ".join(body.provenance.notes)
+
+
+def test_an_anisotropic_point_mass_is_refused_naming_mass21(tet_run):
+    run, _ = tet_run
+    M = run.M + sp.csr_array(([500.0], ([0], [0])), shape=run.M.shape)  # MASSX only
+    with pytest.raises(BodyFileError, match=r"tet\.full: mass matrix: expected the form kron\(Ms, I3\) of solid "
+                       "elements and MASS21 with MASSX = MASSY = MASSZ"):
+        ansys.body_of("tet.rst", replace(run, M=M, element_types={"SOLID187": 3913, "MASS21": 1}))
+
+
+def test_elements_that_do_not_give_the_full_s_mass_are_named_in_a_warning(tet_run):
+    """DENS twice what the .full's M holds: the elements' mass is twice the .full's; the .full's is used."""
+    run, moments = tet_run
+    body = ansys.body_of("tet.rst", replace(run, materials={1: {**run.materials[1], "DENS": 2 * 7850.0}}))
+    assert body.mass == pytest.approx(7850.0 * moments[0], rel=ROUND_OFF)
+    assert "second moments within 1 (warning: the elements are not the .full's model)" in body.provenance.notes[5]

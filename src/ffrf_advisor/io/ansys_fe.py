@@ -30,11 +30,14 @@ VOIGT = [[0, 3, 5], [3, 1, 4], [5, 4, 2]]  # the tensor's entries among MAPDL's 
 
 
 def scalar_mass(run: AnsysRun) -> sp.csr_array:
-    """Ms with M = kron(Ms, I3) (theory 2: solid elements), or one line naming the .full."""
+    """Ms with M = kron(Ms, I3) (theory 2: solid elements, MASS21 with one mass in X, Y and Z), or one line
+    naming the .full."""
     Ms = sp.csr_array(run.M[0::3, 0::3])
     scale = abs(Ms).max()
     if not scale > 0 or abs(run.M - full_mass(Ms)).max() > KRON_TOL * scale:
-        raise BodyFileError(run.full, "mass matrix", "the form kron(Ms, I3) of solid elements with a positive mass")
+        points = " and MASS21 with MASSX = MASSY = MASSZ" if run.element_types.get("MASS21") else ""
+        raise BodyFileError(run.full, "mass matrix", f"the form kron(Ms, I3) of solid elements{points} with a "
+                            "positive mass")
     return Ms
 
 

@@ -7,7 +7,7 @@ of shape (n, 3, nf) reshapes to (3n, nf) without copying.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Iterator
+from typing import Iterator, Mapping
 
 import numpy as np
 import scipy.sparse as sp
@@ -16,6 +16,7 @@ from .elements import ElementType, element_type
 from .material import Material
 from .mesh import Mesh
 
+Rule = tuple[np.ndarray, np.ndarray]  # reference points (nq, 3), weights (nq,)
 _CHUNK_ENTRIES = 4_000_000  # element-matrix entries per assembly chunk (bounds peak memory)
 LUMPINGS = ("rowsum", "hrz")
 
@@ -43,9 +44,10 @@ def _blocks(mesh: Mesh) -> Iterator[tuple[ElementType, np.ndarray]]:
         yield element_type(name), conn
 
 
-def _element_mass(etype: ElementType, coords: np.ndarray, rho: float) -> np.ndarray:
-    """Consistent scalar element mass matrices rho int N_a N_b dV (ne, nn, nn), exact (``ElementType.mass_rule``)."""
-    xi, w = etype.mass_rule()
+def _element_mass(etype: ElementType, coords: np.ndarray, rho: float, rule: Rule | None = None) -> np.ndarray:
+    """Consistent scalar element mass matrices rho int N_a N_b dV (ne, nn, nn): exact (``ElementType.mass_rule``)
+    unless another ``rule`` (reference points, weights) is given."""
+    xi, w = rule or etype.mass_rule()
     N, _ = etype.shape(xi)
     _, detJ = element_gradients(etype, coords, xi)
     return rho * np.einsum("eq,qn,qm->enm", detJ * w, N, N, optimize=True)
@@ -62,8 +64,11 @@ def _lumped(Me: np.ndarray, lumping: str, etype: ElementType) -> np.ndarray:
     return diag * (Me.sum(axis=(1, 2)) / diag.sum(axis=1))[:, None]
 
 
-def mass_matrix(mesh: Mesh, rho: float, lumping: str | None = None) -> sp.csr_array:
-    """Scalar nodal mass matrix Ms (n x n): consistent, or lumped ('rowsum' or 'hrz')."""
+def mass_matrix(mesh: Mesh, rho: float, lumping: str | None = None,
+                rules: Mapping[str, Rule] | None = None) -> sp.csr_array:
+    """Scalar nodal mass matrix Ms (n x n): consistent, or lumped ('rowsum' or 'hrz'); integrated exactly, or by
+    ``rules`` per cell type (another code's own, e.g. ``fe.code_rules.CALCULIX``: the mass its modes are
+    normalised with)."""
     if lumping not in (None, *LUMPINGS):
         raise ValueError(f"unknown lumping {lumping!r}; expected one of {LUMPINGS}")
     n = mesh.n_nodes
@@ -71,7 +76,7 @@ def mass_matrix(mesh: Mesh, rho: float, lumping: str | None = None) -> sp.csr_ar
     for etype, conn in _blocks(mesh):
         for part in _chunks(conn, etype.n_nodes**2):
             c = conn[part]
-            Me = _element_mass(etype, mesh.points[c], rho)
+            Me = _element_mass(etype, mesh.points[c], rho, (rules or {}).get(etype.name))
             if lumping is None:
                 rows = np.broadcast_to(c[:, :, None], Me.shape)
                 cols = np.broadcast_to(c[:, None, :], Me.shape)
@@ -82,10 +87,11 @@ def mass_matrix(mesh: Mesh, rho: float, lumping: str | None = None) -> sp.csr_ar
     return sp.csr_array(Ms)
 
 
-def _element_stiffness(etype: ElementType, coords: np.ndarray, material: Material) -> np.ndarray:
-    """Element stiffness matrices (ne, 3nn, 3nn), node-interleaved."""
+def _element_stiffness(etype: ElementType, coords: np.ndarray, material: Material,
+                       rule: Rule | None = None) -> np.ndarray:
+    """Element stiffness matrices (ne, 3nn, 3nn), node-interleaved, by ``rule`` or the type's ``gauss_rule``."""
     lam, mu = material.lame
-    xi, w = etype.gauss_rule()
+    xi, w = rule or etype.gauss_rule()
     G, detJ = element_gradients(etype, coords, xi)  # (ne, nq, nn, 3)
     ne, nq, nn, _ = G.shape
     Gf = G.reshape(ne, nq, nn * 3)
@@ -96,16 +102,18 @@ def _element_stiffness(etype: ElementType, coords: np.ndarray, material: Materia
     return K.reshape(ne, 3 * nn, 3 * nn)
 
 
-def stiffness_matrix(mesh: Mesh, material: Material, gauss_order: int | None = None) -> sp.csr_array:
+def stiffness_matrix(mesh: Mesh, material: Material, gauss_order: int | None = None,
+                     rules: Mapping[str, Rule] | None = None) -> sp.csr_array:
     """Linear-elastic stiffness K (3n x 3n), node-interleaved DOFs; ``gauss_order`` points per direction
-    instead of each element type's own rule (another code's choice, e.g. MAPDL's KEYOPT)."""
+    instead of each element type's own rule (another code's choice, e.g. MAPDL's KEYOPT), or ``rules`` per cell
+    type (``mass_matrix``)."""
     n3 = 3 * mesh.n_nodes
     K = sp.csr_array((n3, n3))
     for etype, conn in _blocks(mesh):
         etype = etype if gauss_order is None else replace(etype, gauss_order=gauss_order)
         for part in _chunks(conn, (3 * etype.n_nodes) ** 2):
             c = conn[part]
-            Ke = _element_stiffness(etype, mesh.points[c], material)
+            Ke = _element_stiffness(etype, mesh.points[c], material, (rules or {}).get(etype.name))
             dofs = (3 * c[:, :, None] + np.arange(3)).reshape(len(c), -1)
             rows = np.broadcast_to(dofs[:, :, None], Ke.shape)
             cols = np.broadcast_to(dofs[:, None, :], Ke.shape)

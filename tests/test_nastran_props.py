@@ -130,3 +130,13 @@ def test_a_model_over_the_element_limit_is_not_compared_and_says_so(monkeypatch)
     monkeypatch.setattr(nastran_props, "MAX_ELEMENTS", len(cells) - 1)
     note = nastran_props.checked("t.bdf", model, mass, points, True)[-1]
     assert note.startswith(f"pyNastran's mass properties not compared: {len(cells)} elements")
+
+
+def test_mirrored_tetrahedra_keep_the_mass_and_are_not_compared_with_pyNastrans_signed_volumes():
+    points, cells = _corner_cells("CTETRA")
+    cells = [c if k % 3 else [c[0], c[2], c[1], c[3]] for k, c in enumerate(cells)]
+    model = _model(points, cells, "CTETRA")
+    mass = nastran_mass.assembled_mass("t.bdf", model, _run(points, {"CTETRA": len(cells)}))
+    assert nastran_props.of_nodal_mass(mass, points).mass == pytest.approx(RHO * BOX.prod(), rel=ROUND)
+    note = nastran_props.checked("t.bdf", model, mass, points, True)[0]
+    assert f"approximates {len(cells[::3])} tetra cells" in note and "nothing compared" in note

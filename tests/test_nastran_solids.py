@@ -379,3 +379,35 @@ def test_masses_on_an_rbe2_spider_are_carried_exactly_by_the_grids_recovered_mot
 def _i6(J: np.ndarray) -> tuple:
     """A CONM2's I11, I21, I22, I31, I32, I33 of an inertia tensor (off-diagonals -I21, ...)."""
     return (J[0, 0], -J[1, 0], J[1, 1], -J[2, 0], -J[2, 1], J[2, 2])
+
+
+def test_a_deck_beside_the_op2_with_mirrored_wedges_reads_and_an_inverted_one_is_one_line(tmp_path):
+    """Geometry from the input deck (no PARAM,POST,-1 geometry): CPENTA of both handednesses give the box's
+    mass; a twisted one ends the CLI in one line naming it."""
+    from typer.testing import CliRunner
+
+    from ffrf_advisor.cli import app
+    from ffrf_advisor.fe.modal import rigid_modes
+    from ffrf_advisor.io import nastran
+
+    points, cells = _corner_cells("CPENTA", counts=(2, 1, 1))
+    cells = [c if k % 2 else [c[0], c[2], c[1], c[3], c[5], c[4]] for k, c in enumerate(cells)]  # half mirrored
+    n = len(points)
+    modes = np.zeros((6, n, 6))
+    modes[:, :, :3] = rigid_modes(points).reshape(n, 3, 6).transpose(2, 0, 1)
+    _write_op2(tmp_path / "part.op2", _model(np.zeros((0, 3)), [], "CPENTA"), points, np.zeros(6), modes)
+
+    def deck(solids):
+        _model(points, solids, "CPENTA").write_bdf(str(tmp_path / "part.bdf"))
+        (tmp_path / "part.bdf").write_text("SOL 103\nCEND\n" + (tmp_path / "part.bdf").read_text())
+
+    deck(cells)
+    run, mass, _ = nastran.parse(tmp_path / "part.op2")
+    assert nastran_props.of_nodal_mass(mass, run.points).mass == pytest.approx(RHO * BOX.prod(), rel=ROUND)
+    notes = " ".join(mass.notes)
+    assert f"{len(cells) // 2} solids of the other handedness renumbered" in notes
+    assert all(f"{q} within" in notes for q in ("mass", "CG", "inertia"))  # pyNastran takes |volume| of CPENTA
+    deck([[cells[1][k] for k in (0, 1, 2, 3, 5, 4)]] + cells[2:])  # top face turned against the bottom
+    result = CliRunner().invoke(app, ["info", str(tmp_path / "part.op2")])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert "part.op2: CPENTA 1: expected an element whose Jacobian is positive" in result.output

@@ -167,7 +167,8 @@ def _approximations(m, mass: NodalMass, points: np.ndarray) -> list[tuple[tuple[
     tol = PROPS_TOL * max(float(np.abs(points).max()), np.finfo(float).tiny)
     out = []
     for cell, _, conn, mirrored in mass.solids:
-        inexact = mirrored | ~_straight(cell, points[conn], tol) | ~_right_prism(cell, points[conn], tol)
+        signed = mirrored if cell.startswith("tetra") else False  # pyNastran's CTETRA volume is signed
+        inexact = signed | ~_straight(cell, points[conn], tol) | ~_right_prism(cell, points[conn], tol)
         if inexact.any():
             out.append((QUANTITIES, f"{int(inexact.sum())} {cell} cells (not a tetrahedron or right prism with "
                                     "straight edges, or of the other handedness)"))

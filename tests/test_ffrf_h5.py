@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ffrf_advisor.errors import BodyFileError, FFRFError
-from ffrf_advisor.io import ffrf_h5, guard, read_body, write_body
+from ffrf_advisor.io import ffrf_h5, guard, h5_checksums, read_body, write_body
 
 
 @pytest.fixture
@@ -18,6 +18,12 @@ def body_file(tmp_path, block_body):
     path = tmp_path / "block.ffrf.h5"
     write_body(block_body, path)
     return path
+
+
+def restamp(path) -> None:
+    """Record the cache checksum of ``path`` as it now is (a file changed by a writer that checksums it)."""
+    with h5py.File(path, "r+") as f:
+        h5_checksums.stamp_cache(f)
 
 
 def test_round_trip_with_nodal_data(body_file, block_body):
@@ -231,7 +237,7 @@ def test_analyze_of_a_body_with_its_nodal_summary_reads_no_nodal_data(tmp_path):
         for name in ("modes/Phi", "mesh/points", "mass/Ms/data"):
             dtype, shape = f[name].dtype, f[name].shape
             del f[name]
-            f.create_dataset(name, shape=shape, dtype=dtype, fillvalue=np.nan)
+            f.create_dataset(name, shape=shape, dtype=dtype, fillvalue=np.nan, chunks=True, fletcher32=True)
     assert _analyze_json(path) == old
     with pytest.raises(BodyFileError, match="NaN or inf"):
         read_body(path, load_fe=True)
@@ -242,6 +248,9 @@ def test_a_nodal_summary_that_disagrees_with_the_nodal_data_is_refused(tmp_path)
     write_body(read_body(SHIPPED_BEAM, load_fe=True), path)
     with h5py.File(path, "r+") as f:
         f["nodal_summary/max_deflection"][0] *= 1.5
-    assert read_body(path, load_fe="summary").nodal.max_deflection[0] > 0  # the cache alone is not checkable
+    with pytest.raises(BodyFileError, match="checksums@nodal_summary_sha256: expected the SHA-256 of the nodal_summary"):
+        read_body(path, load_fe="summary")  # the cache's own checksum
+    restamp(path)  # a writer that checksums a wrong cache: the nodal data still refuse it
+    assert read_body(path, load_fe="summary").nodal.max_deflection[0] > 0
     with pytest.raises(BodyFileError, match="nodal_summary: expected the summary of the nodal data"):
         read_body(path, load_fe=True)

@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
 from ffrf_advisor.errors import BodyFileError
-from ffrf_advisor.io import ffrf_h5, guard, limits
+from ffrf_advisor.io import ffrf_h5, guard, h5_checksums, limits
 
 ROOT = Path(__file__).resolve().parents[1]
 BEAM = ROOT / "sample_bodies" / "beam.ffrf.h5"
@@ -40,6 +40,7 @@ def _edited_beam(tmp_path, name, edit) -> Path:
     shutil.copy(BEAM, path)
     with h5py.File(path, "r+") as f:
         edit(f)
+        h5_checksums.stamp_cache(f)  # edited on purpose: the limits, not the checksums, are under test
     return path
 
 

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 from .errors import FFRFError
 from .io.atomic import note_input
 from .units import MAX_SPEED
+from .values import is_number
 
 if TYPE_CHECKING:
     import numpy as np
@@ -121,8 +122,7 @@ class Options:
 
 def _number(name: str, value, positive: bool) -> None:
     """``value`` must be a finite number, positive (or non-negative): one line naming the option otherwise."""
-    ok = (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-          and (value > 0 if positive else value >= 0))
+    ok = is_number(value) and (value > 0 if positive else value >= 0)
     if not ok:
         raise FFRFError(f"{name} {value!r}: expected a finite {'positive' if positive else 'non-negative'} number")
 
@@ -142,7 +142,7 @@ def check_options(options: Options) -> None:
     if sit.f_sys is not None:
         _number("--f-sys", sit.f_sys, True)
     n = options.n_ratio
-    if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < 1):
+    if n is not None and (not is_number(n, integer=True) or n < 1):
         raise FFRFError(f"--n-ratio {options.n_ratio!r}: expected a whole number >= 1")
     _number("--tolerance", sit.tolerance, True)
     if sit.rules not in RULE_SETS:
@@ -239,6 +239,6 @@ def _validated(cfg: dict, path: Path) -> dict:
 def check_thresholds(thresholds: dict, source: str) -> None:
     """Every threshold a finite non-negative number (a NaN threshold would switch its rule off)."""
     for key, value in thresholds.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+        if not is_number(value) or value < 0:
             raise FFRFError(f"{source}{'' if source.endswith('.') else ' '}{key}: expected a finite non-negative "
                             f"number, got {value!r}")

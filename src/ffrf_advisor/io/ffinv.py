@@ -18,6 +18,7 @@ from ..adams import SIGNS, from_adams, to_adams, w3_from_I9
 from ..body import MASS_KINDS, FlexibleBody, Provenance
 from ..errors import BodyFileError
 from ..units import LENGTH, MASS, TIME, Units, UnitsError
+from ..values import is_number
 from .atomic import atomic_path
 from . import guard
 from .limits import Budget, check_file_size, check_hdf5_references
@@ -170,15 +171,27 @@ class _Doc:
         return value
 
     def array(self, key: str, shape: tuple) -> np.ndarray:
+        """Numbers (values.is_number: a bool, string or object is none) of ``shape``, finite."""
         try:
+            if not _numbers(self.doc[key]):
+                raise TypeError
             a = np.asarray(self.doc[key], dtype=float)
         except (ValueError, TypeError):
-            self.fail(key, f"numbers of shape {shape}", "non-numeric or ragged data")
+            self.fail(key, f"numbers of shape {shape}", "non-numeric or ragged data (a bool, text or object)")
         if a.shape != shape:
             self.fail(key, f"shape {shape}", str(a.shape))
         if not np.all(np.isfinite(a)):
             self.fail(key, "finite numbers", "NaN or inf")
         return a
+
+
+def _numbers(value) -> bool:
+    """A number, a list of them (nested) or a numeric array (an HDF5 dataset); NaN and inf pass here."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.kind in "fiu"
+    if isinstance(value, list):
+        return all(_numbers(v) for v in value)
+    return isinstance(value, float) or is_number(value)
 
 
 def _units(d: _Doc) -> Units:
@@ -202,10 +215,10 @@ def _check_header(d: _Doc) -> int:
             d.fail(key, "a value (required key)", "missing")
     if d.doc["format"] != FORMAT_NAME:
         d.fail("format", repr(FORMAT_NAME), repr(d.doc["format"]))
-    if isinstance(d.doc["version"], bool) or d.doc["version"] != VERSION:
+    if not is_number(d.doc["version"], integer=True) or d.doc["version"] != VERSION:
         d.fail("version", str(VERSION), repr(d.doc["version"]))
     nf = d.doc["n_modes"]
-    if not isinstance(nf, (int, np.integer)) or isinstance(nf, bool) or not 0 < nf <= 10000:
+    if not is_number(nf, integer=True) or not 0 < nf <= 10000:
         d.fail("n_modes", "a positive integer (at most 10000)", repr(nf))
     return int(nf)
 
@@ -269,7 +282,7 @@ def _provenance(d: _Doc, path, inv: dict) -> Provenance:
     carried = ", ".join(k for k in ("I5", "I9") if k in inv) or "without I5, I9"
     digits = prov.get("digits")
     if digits is not None:
-        if isinstance(digits, bool) or not isinstance(digits, (int, np.integer)) or not 1 <= digits <= 17:
+        if not is_number(digits, integer=True) or not 1 <= digits <= 17:
             d.fail("provenance.digits", "a whole number of significant digits from 1 to 17", repr(digits))
         digits = int(digits)
     return Provenance(source=str(prov.get("source") or path), mass_matrix=fe_mass,

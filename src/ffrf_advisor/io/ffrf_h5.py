@@ -19,7 +19,9 @@ from ..invariants import SPAN, NodalPass, RotaryIntegrals, ShapeIntegrals, block
 from ..units import Units, UnitsError
 from .atomic import atomic_path
 from . import guard
-from .limits import TREE_BYTES_PER_BYTE, Budget, check_hdf5_references
+from . import h5_checksums
+from .h5_reader import CHILD_COPIES, Reader as _Reader
+from .limits import check_hdf5_references
 
 h5py = guard.lazy_module("h5py")  # loaded at first use: in the children, in the tool only meanwhile (guard)
 
@@ -30,16 +32,17 @@ if TYPE_CHECKING:  # imported where the FE data is read or written: a cached bod
     from ..fe.mesh import Mesh
 
 FORMAT_NAME = "ffrf-body"
-VERSION = 3  # 2: optional /material, /static_centrifugal, /geometric_stiffness; 3: optional /rotary (docs/format.md)
-SUPPORTED_VERSIONS = (1, 2, 3)
+VERSION = 4  # 2: optional /material, /static_centrifugal, /geometric_stiffness; 3: optional /rotary; 4: checksums
+SUPPORTED_VERSIONS = (1, 2, 3, 4)  # (docs/format.md)
 NODE_CHUNK = 4096  # nodal rows per HDF5 chunk
-CHILD_COPIES = 2.0  # bytes of the process tree per byte read and kept in the reading child (``kept_in_child``)
+UNCHECKED = "read from a .ffrf.h5 of format 3 or older: no checksums (convert writes them)"  # a provenance note
 
 
 # ---------------------------------------------------------------- writing
 def _dataset(group: h5py.Group, name: str, data: np.ndarray, chunk_rows: bool = False) -> None:
+    """Every dataset chunked with its Fletcher-32 checksum (h5_checksums); nodal rows gzip-compressed too."""
     data = np.ascontiguousarray(data)
-    opts = dict(track_times=False)
+    opts = dict(track_times=False, fletcher32=True, chunks=True)
     if chunk_rows and data.ndim and data.size > 1024:
         opts.update(chunks=(min(len(data), NODE_CHUNK), *data.shape[1:]), compression="gzip",
                     compression_opts=4, shuffle=True)
@@ -86,7 +89,7 @@ def _write_file(body: FlexibleBody, tmp: Path, cache_invariants: bool) -> None:
         prov.attrs["source"] = body.provenance.source
         prov.attrs["mass_matrix"] = body.provenance.mass_matrix
         prov.attrs["method"] = body.provenance.method
-        prov.attrs["notes"] = "\n".join(body.provenance.notes)
+        prov.attrs["notes"] = "\n".join(n for n in body.provenance.notes if n != UNCHECKED)
         if body.provenance.digits is not None:
             prov.attrs["digits"] = body.provenance.digits
         prov.attrs["written_by"] = f"ffrf_advisor {__version__}"
@@ -108,6 +111,7 @@ def _write_file(body: FlexibleBody, tmp: Path, cache_invariants: bool) -> None:
             _write_integrals(f, body.integrals)
         if body.nodal_summary() is not None:
             _write_summary(f.create_group("nodal_summary", track_order=True), body.nodal_summary())
+        h5_checksums.write(f, NODE_CHUNK)
 
 
 def _write_summary(g: h5py.Group, summary: NodalSummary) -> None:
@@ -142,80 +146,13 @@ def _write_fe(f: h5py.File, modes: h5py.Group, stress: h5py.Group | None, fe: Mo
 
 
 # ---------------------------------------------------------------- reading
-class _Reader:
-    """Validating access to one open file; every failure names the field."""
-
-    def __init__(self, path, f: h5py.File):
-        self.path, self.f, self.budget = path, f, Budget(path)
-        self.copies = TREE_BYTES_PER_BYTE  # what each byte read costs the process tree (limits.Budget.take)
-
-    @contextmanager
-    def kept_in_child(self):
-        """Arrays read inside are used by the reading child alone, never sent back: each byte costs the read
-        and one temporary (a finite-check mask, an index conversion), not the parent's copy too."""
-        self.copies = CHILD_COPIES
-        try:
-            yield
-        finally:
-            self.copies = TREE_BYTES_PER_BYTE
-
-    def fail(self, field: str, expected: str, got: str | None = None):
-        raise BodyFileError(self.path, field, expected, got)
-
-    def node(self, name: str, group: bool = False):
-        """The dataset (the group with ``group``) ``name``."""
-        kind, what = (h5py.Group, "a group") if group else (h5py.Dataset, "a dataset")
-        if name not in self.f:
-            self.fail(name, what, "missing")
-        obj = self.f[name]
-        if not isinstance(obj, kind):
-            self.fail(name, what, type(obj).__name__)
-        return obj
-
-    def array(self, name: str, shape: tuple, what: str = "finite numbers", integer: bool = False) -> np.ndarray:
-        ds = self.node(name)
-        if len(ds.shape) != len(shape) or any(s is not None and s != d for s, d in zip(shape, ds.shape)):
-            want = "(" + ", ".join("*" if s is None else str(s) for s in shape) + ")"
-            self.fail(name, f"shape {want}", str(tuple(ds.shape)))
-        kind = ds.dtype.kind
-        if kind not in ("iu" if integer else "fiu"):
-            self.fail(name, "integers" if integer else "numbers", f"dtype {ds.dtype}")
-        self.budget.take(name, ds.size * 8.0, self.copies)
-        data = ds[()]
-        data = data.astype(np.int64 if integer else float, copy=False)
-        if not integer and not np.all(np.isfinite(data)):
-            self.fail(name, what, "NaN or inf")
-        data.flags.writeable = False  # body data as read (invariants.frozen_array takes it without a copy)
-        return data
-
-    def attr(self, name: str, obj=None) -> str:
-        obj = self.f if obj is None else obj
-        if name not in obj.attrs:
-            self.fail(f"{obj.name.rstrip('/')}@{name}", "an attribute", "missing")
-        value = obj.attrs[name]
-        return value.decode() if isinstance(value, bytes) else value
-
-    def csr(self, name: str, shape: tuple[int, int]) -> sp.csr_array:
-        g = self.node(name, group=True)
-        got = tuple(int(s) for s in np.asarray(g.attrs.get("shape", ())).ravel())
-        if got != shape:
-            self.fail(f"{name}@shape", f"{shape}", str(got))
-        data = self.array(f"{name}/data", (None,))
-        indices = self.array(f"{name}/indices", (len(data),), integer=True)
-        indptr = self.array(f"{name}/indptr", (shape[0] + 1,), integer=True)
-        if (indptr[0] != 0 or indptr[-1] != len(data) or np.any(np.diff(indptr) < 0)
-                or (len(indices) and (indices.min() < 0 or indices.max() >= shape[1]))):
-            self.fail(name, "a valid CSR matrix (monotone indptr, indices in range)")
-        import scipy.sparse as sp
-        return sp.csr_array((data, indices, indptr), shape=shape)
-
-
 def _header(r: _Reader) -> tuple[str, Units]:
     if r.f.attrs.get("format") not in (FORMAT_NAME, FORMAT_NAME.encode()):
         r.fail("@format", f"'{FORMAT_NAME}'", repr(r.f.attrs.get("format")))
-    version = r.f.attrs.get("version")
-    if version is None or np.ndim(version) or int(version) not in SUPPORTED_VERSIONS:
-        r.fail("@version", f"one of {SUPPORTED_VERSIONS}", repr(version))
+    r.set_version(int(r.number("version", r.f, f"one of {SUPPORTED_VERSIONS}", lambda v: v in SUPPORTED_VERSIONS,
+                               integer=True)))
+    if r.nodal is not None and not isinstance(r.f.get(h5_checksums.GROUP), h5py.Group):
+        r.fail(h5_checksums.GROUP, f"the checksums of format {r.version}", "missing")
     try:
         units = Units.parse(r.attr("units"))
     except UnitsError as e:
@@ -232,11 +169,11 @@ def _provenance(r: _Reader, path) -> Provenance:
     kind = get("mass_matrix", "unknown")
     if kind not in MASS_KINDS:
         r.fail("provenance@mass_matrix", f"one of {MASS_KINDS}", repr(kind))
-    notes = tuple(n for n in get("notes").split("\n") if n)
+    notes = tuple(n for n in get("notes").split("\n") if n) + ((UNCHECKED,) if r.nodal is None else ())
     source = get("source") or str(path)
     digits = g.attrs.get("digits")
-    if digits is not None and not (np.ndim(digits) == 0 and float(digits).is_integer() and 1 <= digits <= 17):
-        r.fail("provenance@digits", "a whole number of significant digits from 1 to 17", repr(digits))
+    if digits is not None:
+        r.number("digits", g, "a whole number of significant digits from 1 to 17", lambda v: 1 <= v <= 17, True)
     return Provenance(source=source, mass_matrix=kind, method=get("method") or Provenance.method, notes=notes,
                       digits=None if digits is None else int(digits))
 
@@ -279,9 +216,7 @@ def _mass(r: _Reader, n: int) -> sp.csr_array:
 
 def _cached_integrals(r: _Reader, nf: int) -> ShapeIntegrals:
     g = r.node("invariants", group=True)
-    mass = g.attrs.get("mass")
-    if mass is None or np.ndim(mass) or not np.isfinite(mass) or mass <= 0:
-        r.fail("invariants@mass", "a positive finite number", repr(mass))
+    mass = r.number("mass", g, "a positive finite number", lambda v: v > 0)
     return ShapeIntegrals(
         mass=float(mass),
         first_moment=r.array("invariants/first_moment", (3,)),
@@ -317,13 +252,11 @@ def _summary(r: _Reader, nf: int) -> NodalSummary:
     need of them, so those commands read neither the mesh nor the modes."""
     g = r.node("nodal_summary", group=True)
     deflection = r.array("nodal_summary/max_deflection", (nf,))
-    size, n, stiffness = (g.attrs.get(k) for k in ("largest_dimension", "n_nodes", "stiffness"))
     if np.any(deflection < 0):
         r.fail("nodal_summary/max_deflection", "non-negative deflections")
-    if size is None or np.ndim(size) or not 0 < size < 1e150:
-        r.fail("nodal_summary@largest_dimension", "a positive finite length", repr(size))
-    if not isinstance(n, (int, np.integer)) or n < 1:
-        r.fail("nodal_summary@n_nodes", "a positive integer", repr(n))
+    size = r.number("largest_dimension", g, "a positive finite length", lambda v: 0 < v < 1e150)
+    n = r.number("n_nodes", g, "a positive integer", lambda v: v >= 1, integer=True)
+    stiffness = g.attrs.get("stiffness")
     if not isinstance(stiffness, (bool, np.bool_)):
         r.fail("nodal_summary@stiffness", "true or false", repr(stiffness))
     return NodalSummary(deflection, float(size), int(n), bool(stiffness))
@@ -388,14 +321,32 @@ def _read_open(r: _Reader, path, load_fe: bool | str) -> FlexibleBody:
     if integrals is None:
         integrals = _cached_integrals(r, nf)
     else:  # the nodal data were read: what the file caches must be theirs
+        _checksum_agrees(r, "nodal_sha256", r.nodal.hexdigest if r.nodal else None, "the nodal data the caches "
+                         "came from (mesh/points, mass, modes/Phi, rotary) it records")
         if "invariants" in r.f:
             _cache_agrees(r, _cached_integrals(r, nf), integrals)
         if summary is not None:
             _summary_agrees(r, summary, nodal)
-    return FlexibleBody(name=name, integrals=integrals, eigenvalues=eigenvalues, units=units,
+    body = FlexibleBody(name=name, integrals=integrals, eigenvalues=eigenvalues, units=units,
                         sigma_max=sigma, provenance=_provenance(r, path), fe=fe,
                         static_centrifugal=_static_centrifugal(r), geometric=_geometric(r, nf),
                         nodal=nodal if fe is None else None)
+    if r.nodal is not None:  # last: a field's own check names it better
+        for key, digest in h5_checksums.section_digests(r.f, r.read).items():
+            _checksum_agrees(r, key, lambda: digest, "the " + key.split("_sha")[0].replace("attributes", "header "
+                             "attributes (format, units, provenance, material)") + " it records")
+    return body
+
+
+def _checksum_agrees(r: _Reader, key: str, digest, what: str) -> None:
+    """The SHA-256 ``digest()`` of ``what`` equals ``/checksums@key`` (format 4; h5_checksums)."""
+    if digest is None or r.nodal is None:
+        return
+    stored, got = r.f[h5_checksums.GROUP].attrs.get(key), digest()
+    if not isinstance(stored, str) or stored != got:
+        r.fail(f"{h5_checksums.GROUP}@{key}", f"the SHA-256 of {what}",
+               "a different digest: the file was changed after it was written" if isinstance(stored, str)
+               else "missing" if stored is None else repr(stored))
 
 
 def _mode_count(r: _Reader) -> int:
@@ -434,13 +385,9 @@ def _material(r: _Reader) -> Material | None:
     if "material" not in r.f:
         return None
     g = r.node("material", group=True)
-    values = {}
-    for key, ok, want in (("E", lambda v: v > 0, "a positive number"), ("rho", lambda v: v > 0, "a positive number"),
-                          ("nu", lambda v: -1 < v < 0.5, "a number in (-1, 0.5)")):
-        v = g.attrs.get(key)
-        if v is None or np.ndim(v) or isinstance(v, (bytes, str)) or not np.isfinite(v) or not ok(float(v)):
-            r.fail(f"material@{key}", want, repr(v))
-        values[key] = float(v)
+    values = {key: float(r.number(key, g, want, ok)) for key, ok, want in (
+        ("E", lambda v: v > 0, "a positive number"), ("rho", lambda v: v > 0, "a positive number"),
+        ("nu", lambda v: -1 < v < 0.5, "a number in (-1, 0.5)"))}
     from ..fe.material import Material
     return Material(str(r.attr("name", g)), values["E"], values["nu"], values["rho"])
 
@@ -512,11 +459,15 @@ def _chunked(r: _Reader, ds: h5py.Dataset, rows: int) -> h5py.Dataset:
 
 
 def _checked_rows(r: _Reader, name: str, ds: h5py.Dataset):
-    """Rows a:b of ``ds`` as finite floats (the field named otherwise)."""
+    """Rows a:b of ``ds`` as finite floats (the field named otherwise), nodal data digested in row order."""
+    digest = r.nodal.stream(name, ds.shape) if r.nodal is not None and h5_checksums.is_nodal(name) else None
+
     def rows(a: int, b: int) -> np.ndarray:
-        block = ds[a:b].astype(float, copy=False)
+        block = r.read(ds, np.s_[a:b]).astype(float, copy=False)
         if not np.all(np.isfinite(block)):
             r.fail(name, "finite numbers", "NaN or inf")
+        if digest is not None:
+            digest.add(a, block)
         return block
     return rows
 

@@ -1,13 +1,14 @@
 """Run the reference and the term sets through the scenes; errors, cost, speed-up and the verdict (theory section 10).
 
-Reference: the full term set with DOP853 at ``REF_RTOL``, checked by
-self-convergence against a run at ``REF_RTOL / 100``: their difference, by
-the criterion, must stay below ``SELF_CHECK`` times the tolerance, else the
-scene gives no verdict (an unconverged reference cannot tell a set's error
-from its own; chaotic motion, or amplitudes far outside small deformations,
-theory 6). Every
-set is run with the same integrator and sampled on the reference's grid;
-its wall time is the minimum over repeats taken serially. A set meets the
+Reference: the full term set at ``REF_RTOL``, its error estimated and,
+where the estimate does not show convergence, checked by
+self-convergence (verify.reference); a scene whose reference did not
+converge gives no verdict. Every set is run once with the same
+integrator and sampled on the reference's grid. Its cost is its
+evaluations times its set's compiled seconds per evaluation, measured
+once per set in a short loop (sim.timing): the speed-up column is free
+of the timer's noise, and no run is repeated only to be timed (``repeats``
+> 1 takes the minimum wall time of that many serial runs). A set meets the
 tolerance by a criterion (``measures.CRITERIA``): ``response`` (default:
 frequencies at the scene's spin, means, oscillation sizes and peak stress,
 which is what the advisor's measures bound) or ``trajectory`` (the
@@ -20,7 +21,6 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..amplitudes import SMALL_DEFORMATION
 from ..analysis import Analysis, analyze
 from ..response import frequency_change
 from ..pool import cpus, mapper, threads
@@ -29,13 +29,14 @@ from ..sim.cost import rhs_cost
 from ..sim.integrate import FIXED, Run, integrate
 from ..sim.model import Model, build_model, initial_state
 from ..sim.output import summary
+from ..sim.timing import evaluation_seconds, timed
 from ..terms import FULL, LEVEL_SETS, is_lagrangian, lagrangian_superset, ordered
 from ..units import TIME
-from .measures import CRITERIA, errors, worst
+from .measures import CRITERIA, worst
+from .reference import (REF_RTOL, SELF_CHECK, Reference, estimated, needs_tight, scene_errors, self_check,  # noqa: F401
+                        self_checked)
 from .scenes import Scene
 
-REF_RTOL = 1e-10
-SELF_CHECK = 0.1  # the reference's self-convergence error must stay below this share of the tolerance
 SAMPLES = 400  # samples per scene, shared by every run
 
 
@@ -62,19 +63,12 @@ class SetResult:
     nfev: int
     failed: bool
     reason: str
-    speedup: float | None = None  # wall(full) / wall(this set), same integrator
+    speedup: float | None = None  # cost(full) / cost(this set), same integrator
+    cost_s: float | None = None   # evaluations x the set's compiled seconds per evaluation (sim.timing)
     run: Run | None = field(default=None, compare=False, repr=False)  # the samples, for the trajectory figures
 
     def meets(self, tolerance: float, criterion: str = "response") -> bool:
         return not self.failed and worst(self.errors, criterion) <= tolerance
-
-
-@dataclass(frozen=True)
-class Reference:
-    run: Run
-    self_error: dict      # errors of the run at REF_RTOL against the one at REF_RTOL / 100
-    wall_s: float
-    self_check_nfev: int  # right-hand sides of the run at REF_RTOL / 100
 
 
 @dataclass(frozen=True)
@@ -193,16 +187,14 @@ def run_scene(model: Model, scene: Scene, integrator: str = "dop853", step: floa
 
 
 def reference(a: Analysis, scene: Scene) -> Reference:
-    """The full set at REF_RTOL, and its self-convergence error against REF_RTOL / 100."""
-    model = build_model(a.body, stiffened(a, FULL), scene.damping)
-    run = run_scene(model, scene, "dop853", rtol=REF_RTOL)
-    tight = run_scene(model, scene, "dop853", rtol=REF_RTOL / 100)
-    return Reference(run, scene_errors(a, run, tight), run.wall_s, tight.nfev)
+    """The full set at REF_RTOL, its error not yet estimated (verify.reference)."""
+    run = run_scene(reference_model(a, scene), scene, "dop853", rtol=REF_RTOL)
+    return Reference(run, {}, run.wall_s, 0)
 
 
-def scene_errors(a: Analysis, run: Run, ref: Run) -> dict:
-    """The errors of theory section 10 with the floors of the analysis (q_max, sigma_allow)."""
-    return errors(run, ref, a.body.sigma_max, a.amplitudes.q_max, a.amplitudes.sigma_allow)
+def reference_model(a: Analysis, scene: Scene) -> Model:
+    """The model of the reference: the full set, with geo_stiff where carried."""
+    return build_model(a.body, stiffened(a, FULL), scene.damping)
 
 
 def frequency_error(a: Analysis, terms, scene: Scene) -> float:
@@ -215,28 +207,29 @@ def frequency_error(a: Analysis, terms, scene: Scene) -> float:
 
 def run_set(a: Analysis, ts: TermSet, scene: Scene, ref: Reference, integrator: str, step: float | None,
             rtol: float, repeats: int) -> SetResult:
-    """Errors of one set against the reference; cost as the minimum wall time over ``repeats`` serial runs."""
+    """Errors of one set against the reference; its wall time from one run (sim.timing.timed: ``repeats`` runs,
+    or a few where a run is shorter than the timer can tell, the minimum counting)."""
     model = build_model(a.body, ts.terms, scene.damping)
-    runs = [run_scene(model, scene, integrator, step, rtol) for _ in range(max(1, repeats))]
-    run = runs[0]
+    run, wall = timed(lambda: run_scene(model, scene, integrator, step, rtol), repeats)
     s = summary(model, run, str(a.body.units))
     errs = {**scene_errors(a, run, ref.run), "frequency": frequency_error(a, ts.terms, scene)}
-    return SetResult(ts, scene.label, errs, s["energy_drift"], s["H_drift"],
-                     min(r.wall_s for r in runs), run.nfev, run.failed, run.reason, run=run)
+    return SetResult(ts, scene.label, errs, s["energy_drift"], s["H_drift"], wall, run.nfev, run.failed, run.reason,
+                     run=run)
 
 
 def verify(a: Analysis, scenes, tolerance: float = 0.01, integrator: str = "dop853", step: float | None = None,
-           rtol: float = 1e-8, repeats: int = 3, criterion: str = "response", jobs: int = 1,
+           rtol: float = 1e-8, repeats: int = 1, criterion: str = "response", jobs: int = 1,
            progress=None, untimed=None) -> Verification:
     """Every term set through every scene against the reference, and the verdict on the advice by ``criterion``;
-    the references, then the runs of the distinct sets (``distinct``), on ``jobs`` local processes (each run's
-    wall time is the minimum over its ``repeats``, taken serially in its worker); ``progress(label, done,
-    total)`` is told of each finished run; ``untimed()`` is called after the references and before the first
-    timed run (it waits for work done beside the references, which nothing times)."""
+    the references, then one run of each distinct set (``distinct``; ``repeats`` > 1: the minimum wall time of
+    that many, taken serially in its worker), then the references' self-checks where needed (verify.reference),
+    on ``jobs`` local processes; ``progress(label, done, total)`` is told of each finished run; ``untimed()`` is
+    called after the references and before the first timed run (it waits for work done beside the references,
+    which nothing times)."""
     scenes, sets = tuple(scenes), term_sets(a)
-    refs, rows = _runs(_Work(a, scenes, distinct(sets), integrator, step, rtol, repeats), jobs,
-                       progress or _silent, untimed or _silent)
-    run_of = {(r.scene, r.set.terms): r for r in rows}
+    work = _Work(a, scenes, distinct(sets), integrator, step, rtol, repeats, tolerance, criterion)
+    refs, rows = _runs(work, jobs, progress or _silent, untimed or _silent)
+    run_of = {(r.scene, r.set.terms): r for r in _costed(a, scenes, rows)}
     results = []
     for sc in scenes:
         scene_rows = [replace(run_of[sc.label, ts.terms], set=ts) for ts in sets]
@@ -260,29 +253,45 @@ class _Work:
     step: float | None
     rtol: float
     repeats: int
+    tolerance: float
+    criterion: str
 
 
 _work: _Work | None = None
 
 
 def _runs(work: _Work, jobs: int, progress, untimed) -> tuple[dict, list[SetResult]]:
-    """The scenes' references (on two threads beside one job), ``untimed()``, then every (scene, set) run, in
-    order, each finished one told to ``progress``."""
+    """The scenes' references (on two threads beside one job), ``untimed()``, every (scene, set) run, then the
+    references' error estimates and the self-checks they call for, in order, each finished run told to
+    ``progress``."""
     global _work
     _work = work
     n = len(work.scenes) * (1 + len(work.sets))
     pairs = [(i, j) for i in range(len(work.scenes)) for j in range(len(work.sets))]
     try:
         with mapper(jobs) as map_, threads(min(2, cpus())) as threaded:  # its threads start with its map
-            # The references time nothing: beside one job they take two threads (DOP853 releases the GIL).
-            refs = _told((threaded if jobs <= 1 else map_)(_reference_run, range(len(work.scenes))), progress, 0,
+            # The references and their checks time nothing: beside one job they take two threads (DOP853 releases
+            # the GIL).
+            untimed_map = threaded if jobs <= 1 else map_
+            refs = _told(untimed_map(_reference_run, range(len(work.scenes))), progress, 0,
                          n, lambda i: f"reference {work.scenes[i].label}")
             untimed()
             rows = _told(map_(_set_run, pairs, [refs[i] for i, _ in pairs]), progress, len(refs), n,
                          lambda k: f"{work.scenes[pairs[k][0]].label}: {work.sets[pairs[k][1]].label}")
+            refs = _estimated(work, refs, rows)
+            check = [i for i, ref in enumerate(refs) if needs_tight(ref, work.tolerance, work.criterion)]
+            for i, tight in zip(check, untimed_map(_tight_run, check)):
+                refs[i] = self_checked(work.a, refs[i], tight)
     finally:
         _work = None
     return {sc.label: ref for sc, ref in zip(work.scenes, refs)}, rows
+
+
+def _estimated(work: _Work, refs: list[Reference], rows: list[SetResult]) -> list[Reference]:
+    """The references with their error estimates from the full set's runs (verify.reference.estimated)."""
+    full = stiffened(work.a, FULL)
+    run_of = {r.scene: r.run for r in rows if r.set.terms == full}
+    return [estimated(work.a, ref, run_of.get(sc.label)) for sc, ref in zip(work.scenes, refs)]
 
 
 def _told(results, progress, before: int, total: int, label) -> list:
@@ -302,40 +311,33 @@ def _reference_run(i: int) -> Reference:
     return reference(_work.a, _work.scenes[i])
 
 
+def _tight_run(i: int) -> Run:
+    """Scene i's reference model at REF_RTOL / 100 (the self-check)."""
+    sc = _work.scenes[i]
+    return run_scene(reference_model(_work.a, sc), sc, "dop853", rtol=REF_RTOL / 100)
+
+
 def _set_run(pair: tuple[int, int], ref: Reference) -> SetResult:
     w = _work
     return run_set(w.a, w.sets[pair[1]], w.scenes[pair[0]], ref, w.integrator, w.step, w.rtol, w.repeats)
 
 
+def _costed(a: Analysis, scenes, rows: list[SetResult]) -> list[SetResult]:
+    """The rows with their cost: evaluations times the set's compiled seconds per evaluation, measured once per
+    set here, after every run (sim.timing.evaluation_seconds; at the first scene's initial state)."""
+    sc = scenes[0]
+    per = {}
+    for terms in dict.fromkeys(r.set.terms for r in rows):
+        model = build_model(a.body, terms)
+        per[terms] = evaluation_seconds(model, initial_state(model, sc.omega0, sc.q0, sc.qd0))
+    return [replace(r, cost_s=r.nfev * per[r.set.terms]) for r in rows]
+
+
 def _with_speedup(r: SetResult, full: SetResult) -> SetResult:
-    """wall(full) / wall(set); exactly 1 for the full set's own terms (the same evaluations: any other ratio
-    would be the timer's noise)."""
+    """cost(full) / cost(set) (``_costed``); exactly 1 for the full set's own terms (the same evaluations)."""
     if set(r.set.terms) == set(full.set.terms):
         return replace(r, speedup=1.0)
-    return replace(r, speedup=full.wall_s / r.wall_s if r.wall_s > 0 else None)
-
-
-def self_check(a: Analysis, ref: Reference, tolerance: float, criterion: str) -> str | None:
-    """Why a scene gives no verdict: its reference's self-convergence error by ``criterion`` above SELF_CHECK x
-    tolerance (theory 10: far below the smallest error that matters); None when it converged."""
-    e = worst(ref.self_error, criterion)
-    limit = SELF_CHECK * tolerance
-    if e <= limit:
-        return None
-    return (f"reference did not self-converge: difference {e:.3g} between rtol {REF_RTOL:g} and {REF_RTOL / 100:g} "
-            f"> tolerance/{1 / SELF_CHECK:g} = {limit:.3g}; likely chaotic motion or an amplitude outside small "
-            f"deformations{_deflection_note(a)}")
-
-
-def _deflection_note(a: Analysis) -> str:
-    """The largest modal deflection ratio at q_max (theory 6), when the body has nodal modes."""
-    r = a.amplitudes.deflection_ratio
-    if r is None:
-        return ""
-    p = int(np.argmax(r))
-    side = "above" if r[p] > SMALL_DEFORMATION else "within"
-    return (f" (at q_max mode {p + 1} deflects {r[p]:.2g} of the body's largest dimension, {side} small deformations, "
-            f"{SMALL_DEFORMATION:g})")
+    return replace(r, speedup=full.cost_s / r.cost_s if r.cost_s > 0 else None)
 
 
 def judge(a: Analysis, results: tuple[SetResult, ...], references: dict, tolerance: float,

@@ -98,7 +98,7 @@ def stability_studies(a: Analysis, scene: Scene) -> dict:
 
 
 def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str = "dop853",
-              step: float | None = None, rtol: float = 1e-8, repeats: int = 3,
+              step: float | None = None, rtol: float = 1e-8, repeats: int = 1,
               scene_options: SceneOptions = SceneOptions(), criterion: str = "response", quick: bool = False,
               jobs: int = 1, progress=None) -> Study:
     """Everything ``verify`` reports. The scenes and the verdict cover every axis of ``scenes.scene_axes`` (their

@@ -3,8 +3,9 @@
 Like DiffEqDevTools' work-precision sets: every (term set, integrator)
 pair is run at a range of tolerances (adaptive) or steps (fixed), its
 error is the worst of the scene's errors against the reference, its cost
-the wall time (minimum over repeats, taken serially on this machine) and
-the right-hand-side evaluations. Failed runs are kept and drawn as failed.
+the wall time of one run (sim.timing.timed: the minimum over ``repeats``
+serial runs where asked, or over a few where a run is too short to time)
+and the right-hand-side evaluations. Failed runs are kept and drawn as failed.
 The Pareto front is the set of runs no other run beats in both cost and
 error.
 """
@@ -17,6 +18,7 @@ import numpy as np
 from ..analysis import Analysis
 from ..sim.integrate import rk4_limit
 from ..sim.model import build_model
+from ..sim.timing import timed
 from .measures import worst
 from .runner import Reference, TermSet, distinct, run_scene, scene_errors
 from .scenes import Scene
@@ -54,11 +56,10 @@ def _points(a: Analysis, scene: Scene, ref: Reference, ts: TermSet, runs, repeat
     points = []
     for integrator, setting, step in runs:
         rtol = setting if step is None else 1e-8
-        trials = [run_scene(model, scene, integrator, step, rtol) for _ in range(max(1, repeats))]
-        run = trials[0]
+        run, wall = timed(lambda: run_scene(model, scene, integrator, step, rtol), repeats)
         err = scene_errors(a, run, ref.run)
         used = setting if run.step is None else run.step  # fixed steps divide the sampling interval
-        points.append(Point(ts.label, integrator, float(used), min(t.wall_s for t in trials), run.nfev,
+        points.append(Point(ts.label, integrator, float(used), wall, run.nfev,
                             worst(err), bool(run.failed or not np.isfinite(worst(err)))))
     return points
 

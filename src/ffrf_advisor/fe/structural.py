@@ -18,7 +18,7 @@ normal), of a beam x + y e2 + z e3 over the section, so its kinetic energy split
   elements of constant Jacobian it is the integral of each shape function.
 Point masses: m on the diagonal of Ms and their 3 x 3 inertia J at their node.
 
-Integrals by Gauss rules (collapsed Gauss on triangles), exact wherever the area or length element is a
+Integrals by Gauss rules (collapsed Gauss-Jacobi on triangles), exact wherever the area or length element is a
 polynomial (flat shells, straight beams, any mid-side node placement along them); on curved quadratic
 elements the area element is a square root and the rule's 8 points per direction leave an error far
 below the geometry's own.
@@ -32,6 +32,9 @@ from typing import Iterator
 
 import numpy as np
 import scipy.sparse as sp
+
+from . import quadrature
+from .lagrange import LagrangeBasis
 
 _CHUNK = 2_000_000  # quadrature-point x node-pair entries per chunk (bounds peak memory)
 
@@ -56,39 +59,36 @@ class Reference:
         return len(self.nodes)
 
     def shape(self, xi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """N (nq, nn) and dN/dxi (nq, nn, dim) at xi (nq, dim): N = P(xi) C with C = P(nodes)^-1 (N_a(x_b) =
-        delta_ab), P the monomials."""
-        e, C = _coefficients(self)
-        P = np.prod(xi[:, None, :] ** e[None], axis=2)
-        dP = np.stack([e[:, d] * np.prod(xi[:, None, :] ** np.where(np.arange(self.dim) == d, np.maximum(e - 1, 0),
-                                                                    e)[None], axis=2)
-                       for d in range(self.dim)], axis=-1)
-        return P @ C, np.einsum("qkd,kn->qnd", dP, C)
+        """N (nq, nn) and dN/dxi (nq, nn, dim) at xi (nq, dim): the monomials times the inverse of their values
+        at the nodes (``fe.lagrange``, in 3D with the unused coordinates 0)."""
+        N, dN = _basis(self)(_padded(xi))
+        return N, dN[..., :self.dim]
 
     def rule(self) -> tuple[np.ndarray, np.ndarray]:
         """Quadrature points (nq, dim) and weights (nq,) on the reference element."""
         return _rule(self.dim, self.points, self.triangle)
 
 
+def _padded(a) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    return np.hstack([a, np.zeros((len(a), 3 - a.shape[1]))])
+
+
 @cache
-def _coefficients(ref: Reference) -> tuple[np.ndarray, np.ndarray]:
-    e = np.array(ref.monomials, dtype=float)
-    X = np.array(ref.nodes, dtype=float)
-    return e, np.linalg.inv(np.prod(X[:, None, :] ** e[None], axis=2))
+def _basis(ref: Reference) -> LagrangeBasis:
+    return LagrangeBasis(_padded(ref.nodes), _padded(ref.monomials).astype(int))
 
 
 @cache
 def _rule(dim: int, n: int, triangle: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Gauss-Legendre, tensor in 2D; on the triangle collapsed (r, s) = (u, v (1 - u)) over [0, 1]^2 with
-    the factor 1 - u, exact for total degree 2n - 2."""
+    """Gauss-Legendre on [-1, 1], tensor on [-1, 1]^2; on the triangle ``fe.quadrature``'s collapsed rule (exact
+    for total degree 2n - 1)."""
+    if triangle:
+        return quadrature.triangle(n)
     t, w = np.polynomial.legendre.leggauss(n)
     if dim == 1:
         return t[:, None], w
-    pts, wts = np.array(list(product(t, t))), np.array([a * b for a, b in product(w, w)])
-    if not triangle:
-        return pts, wts
-    u, v = (pts[:, 0] + 1) / 2, (pts[:, 1] + 1) / 2
-    return np.stack([u, v * (1 - u)], axis=1), wts * (1 - u) / 4
+    return np.array(list(product(t, t))), np.array([a * b for a, b in product(w, w)])
 
 
 _SQ = ((-1, -1), (1, -1), (1, 1), (-1, 1))

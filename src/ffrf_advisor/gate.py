@@ -13,7 +13,7 @@ from .io import check_reader_options, read_body
 from .io.atomic import refuse_inputs
 from .io.guard import importing_meanwhile
 from .names import LEVELS
-from .pool import mapper
+from .pool import mapper, workers
 from .report.junit import xml_text
 
 if TYPE_CHECKING:
@@ -58,15 +58,15 @@ CHUNK = 2  # bodies per hand-out: a pickled round trip (about 1 ms) per two bodi
 
 def run_gate(paths: list[str], options: Options, max_level: str, jobs: int, read_options: dict | None = None,
              progress: Callable[[str, int, int], None] | None = None, after_read: tuple[str, ...] = ()) -> list[dict]:
-    """Each body's gate record (gate_one) in order, ``jobs`` processes handing out bodies ``CHUNK`` at a time;
-    ``progress(file, done, total)`` after each body when given; ``after_read``: modules the caller needs after
-    the run (the report's), imported while the first body is read where it is read here (one job)."""
-    results = []
+    """Each body's gate record (gate_one) in order, at most ``jobs`` processes (pool.workers) handing out bodies
+    ``CHUNK`` at a time; ``progress(file, done, total)`` after each body when given; ``after_read``: modules the
+    caller needs after the run (the report's), imported while the first body is read where it is read here."""
+    results, jobs = [], workers(jobs, len(paths), CHUNK)
     if jobs > 1:  # the workers fork with them imported
         for name in AFTER_READ:
             importlib.import_module(name)
     args = (options, max_level, read_options, after_read if jobs == 1 else ())
-    with mapper(jobs, chunksize=CHUNK) as map_:
+    with mapper(jobs, chunksize=CHUNK, tasks=len(paths)) as map_:
         for record in map_(gate_one, paths, *([x] * len(paths) for x in args)):
             results.append(record)
             if progress is not None:

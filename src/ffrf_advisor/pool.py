@@ -146,12 +146,20 @@ def beside(fn):
     return wait
 
 
+def workers(jobs: int, tasks: int | None = None, chunksize: int = 1) -> int:
+    """The processes ``--jobs`` asks for, at most one per hand-out of ``chunksize`` of ``tasks`` and one per
+    processor: a pool forks all its workers at its start (gate of one body with --jobs 300 forked 300)."""
+    hand_outs = jobs if tasks is None else -(-tasks // chunksize)
+    return max(1, min(jobs, hand_outs, cpus()))
+
+
 @contextmanager
-def mapper(jobs: int, chunksize: int = 1):
-    """An ordered ``map`` over ``jobs`` local processes (the builtin ``map`` for one job), ``chunksize`` items a
-    hand-out, as the pool's own map, each result waited for in WAKE_S slices (``awake``: a SIGINT the kernel
-    hands to the pool's manager thread is seen at once, not when the next chunk ends); interrupted, it ends
-    without waiting for the running tasks (``_stop``)."""
+def mapper(jobs: int, chunksize: int = 1, tasks: int | None = None):
+    """An ordered ``map`` over ``workers(jobs, tasks, chunksize)`` local processes (the builtin ``map`` for
+    one), ``chunksize`` items a hand-out, as the pool's own map, each result waited for in WAKE_S slices
+    (``awake``: a SIGINT the kernel hands to the pool's manager thread is seen at once, not when the next chunk
+    ends); interrupted, it ends without waiting for the running tasks (``_stop``)."""
+    jobs = workers(jobs, tasks, chunksize)
     if jobs <= 1:
         yield map
         return

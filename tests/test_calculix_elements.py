@@ -61,16 +61,16 @@ def _rigid_mass(directory: Path, points: dict[int, np.ndarray], rot=()) -> tuple
     """Total mass and inertia tensor about the centre of mass from the .mas by rigid motions of its rows:
     translations e_a on every translational row, rotations theta x x (and theta on a ROT NODE's rows)."""
     M, labels = _mas(directory)
-    def field(t, theta):
-        return np.array([theta[c - 1] if n in rot else (t + np.cross(theta, points[n]))[c - 1] for n, c in labels])
+    node, c = np.array(labels).T
+    x = np.array([points[n] for n in node])
+    turning = np.isin(node, list(rot))
     E = np.eye(3)
-    T = np.array([field(E[a], np.zeros(3)) for a in range(3)])
+    T = np.array([np.where(turning, 0.0, E[a][c - 1]) for a in range(3)])  # translation a, row by row
+    R = np.array([np.where(turning, E[a][c - 1], np.cross(E[a], x)[np.arange(len(c)), c - 1]) for a in range(3)])
     mass = float((T @ M @ T.T).trace() / 3)
-    R = np.array([field(np.zeros(3), E[a]) for a in range(3)])
-    first = np.array([T[a] @ M @ field(np.zeros(3), E[b]) for a in range(3) for b in range(3)]).reshape(3, 3)
-    c = np.array([first[2, 1], first[0, 2], first[1, 0]]) / mass  # T_a M R_b = (e_b x m c)_a
-    I_origin = R @ M @ R.T
-    return mass, I_origin - mass * (np.dot(c, c) * np.eye(3) - np.outer(c, c))
+    first = T @ M @ R.T  # (e_a . (e_b x m c)): the first moment m c
+    centre = np.array([first[1, 2], first[2, 0], first[0, 1]]) / mass
+    return mass, R @ M @ R.T - mass * (centre @ centre * np.eye(3) - np.outer(centre, centre))
 
 
 def _dat(directory: Path) -> np.ndarray:

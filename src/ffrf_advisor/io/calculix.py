@@ -164,8 +164,9 @@ def _mass(frd, deck, mesh, Phi, stress, index, stem):
     """Ms, K, mesh, Phi and stress with any spider REF NODEs carrying masses appended, and notes."""
     Ms, K, why = stored_matrices(stem, index)
     if Ms is not None:
-        return Ms, K, mesh, Phi, stress, ["mass" + (" and stiffness" if K is not None else "")
-                                          + ": CalculiX matrix storage (.mas/.dof" + ("/.sti)" if K is not None else ")")]
+        stored = "mass and stiffness" if K is not None else "mass"
+        files = ".mas/.dof/.sti" if K is not None else ".mas/.dof"
+        return Ms, K, mesh, Phi, stress, [f"{stored}: CalculiX matrix storage ({files})"]
     Ms = _assembled(frd, deck, mesh, why, stem)
     notes = ["mass: consistent, assembled from the mesh and *DENSITY of the deck" + (f" (not the .mas: {why})"
                                                                                    if why else "")]

@@ -140,3 +140,38 @@ def test_mirrored_tetrahedra_keep_the_mass_and_are_not_compared_with_pyNastrans_
     assert nastran_props.of_nodal_mass(mass, points).mass == pytest.approx(RHO * BOX.prod(), rel=ROUND)
     note = nastran_props.checked("t.bdf", model, mass, points, True)[0]
     assert f"approximates {len(cells[::3])} tetra cells" in note and "nothing compared" in note
+
+
+@pytest.mark.parametrize("kind, warp", [(k, w) for k in ("CPENTA", "CHEXA") for w in ("shear", "heights")])
+def test_oblique_or_tapered_prisms_keep_the_mass_and_are_not_compared_with_pyNastrans_right_prisms(kind, warp):
+    """x += 0.3 z (oblique prisms), or the middle layer of grids moved up and down (top faces not the bottom
+    moved): the box's volume is kept, which pyNastran measures as mean face area times the distance of the
+    face centres (a few % off)."""
+    points, cells = _corner_cells(kind)
+    if warp == "shear":
+        points = points + 0.3 * points[:, 2:3] * [1.0, 0.0, 0.0]
+    else:
+        middle = points[:, 2] == BOX[2] / 2
+        points[middle, 2] += np.random.default_rng(4).uniform(-1.0, 1.0, middle.sum())
+    model = _model(points, cells, kind)
+    mass = nastran_mass.assembled_mass("s.bdf", model, _run(points, {kind: len(cells)}))
+    assert nastran_props.of_nodal_mass(mass, points).mass == pytest.approx(RHO * BOX.prod(), rel=ROUND)
+    note = nastran_props.checked("s.bdf", model, mass, points, True)[0]
+    assert f"approximates {len(cells)} " in note and "nothing compared" in note
+
+
+@pytest.mark.parametrize("kind", ["CPENTA", "CHEXA"])
+def test_right_prisms_on_uneven_bases_are_compared_where_pyNastrans_centroid_holds(kind):
+    """Interior columns of grids moved sideways (the same in every layer): right prisms on uneven bases.
+    pyNastran's CPENTA centroid (mean of the triangles' corners) is right, its CHEXA one (mean of the quads'
+    corners) is not the centroid of an uneven quadrilateral."""
+    points, cells = _corner_cells(kind, counts=(4, 3, 2))
+    inside = (points[:, 0] > 0) & (points[:, 0] < BOX[0]) & (points[:, 1] > 0) & (points[:, 1] < BOX[1])
+    columns = {tuple(p[:2]) for p in points[inside]}
+    shift = dict(zip(sorted(columns), np.random.default_rng(5).uniform(-1.5, 1.5, (len(columns), 2))))
+    points[inside, :2] += [shift[tuple(p[:2])] for p in points[inside]]
+    model = _model(points, cells, kind)
+    mass = nastran_mass.assembled_mass("u.bdf", model, _run(points, {kind: len(cells)}))
+    assert nastran_props.of_nodal_mass(mass, points).mass == pytest.approx(RHO * BOX.prod(), rel=ROUND)
+    note = nastran_props.checked("u.bdf", model, mass, points, True)[0]
+    assert all(f"{q} within" in note for q in ("mass", "CG", "inertia")) == (kind == "CPENTA"), note

@@ -108,3 +108,34 @@ def test_any_float_for_any_numeric_simulate_option_is_a_result_or_one_line(optio
         _strict(out)
     else:
         assert result.exit_code in (2, 3) and len(out.strip().splitlines()) == 1, (args, result.exit_code, out[-2000:])
+
+
+def _one_line_exit_2(args: list[str], *words: str) -> None:
+    result = _invoke([str(a) for a in args])
+    lines = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(lines) == 1 and all(w in lines[0] for w in words), (args, result.output)
+
+
+@pytest.mark.parametrize("option, text, words", [
+    ("--q0", "0.04,0.02", ("--q0", "16 numbers", "got 2")),  # padded with zeros: the deflection bound saw 2 modes
+    ("--q0", ",".join(["0.01"] * 17), ("--q0", "16 numbers", "got 17")),
+    ("--qd0", "1", ("--qd0", "16 numbers")),
+    ("--omega0", "1,2", ("--omega0", "3 numbers", "got 2")),  # was (1, 2, 0)
+    ("--omega0", "1,2,3,4", ("--omega0", "3 numbers", "got 4")),
+    ("--q0", ",".join(["nan"] * 16), ("--q0", "finite numbers")),
+])
+def test_option_lists_of_another_length_than_they_describe_are_one_line(tmp_path, option, text, words):
+    """A list shorter or longer than the modes (or than three components) is refused in one line, with how
+    many it takes, by simulate and export alike (cli._start)."""
+    for command in ("simulate", "export"):
+        extra = ["--t-end", "1e-4", "--json"] if command == "simulate" else ["-o", tmp_path / "out", "--speed", "30rad/s"]
+        _one_line_exit_2([command, BEAM, option, text, *extra], *words)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("value", ["inf", "-inf", "nan", "Infinity"])
+def test_non_finite_numbers_are_refused_for_every_float_option(value):
+    """--f-max inf wrote Infinity into modes --json and nan was ignored: every float option refuses them at
+    parsing (cli_params), before any body is read."""
+    _one_line_exit_2(["modes", BEAM, "--speed", "30rad/s", "--f-max", value, "--json"], "--f-max", "not a finite number")
+    _one_line_exit_2(["simulate", BEAM, "--t-end", value], "--t-end", "not a finite number")

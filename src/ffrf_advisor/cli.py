@@ -805,8 +805,10 @@ def _start(b, options, per_second: float, omega0: str, q0: Optional[str], qd0: O
     checked (sim.setup.check_initial_state)."""
     import numpy as np
     from .sim.setup import check_initial_state, q_max_of
-    start = q_max_of(b, options.amplitudes) if q0 is not None and q0.strip() == "qmax" else numbers("--q0", q0)
-    w0, v0 = numbers("--omega0", omega0), numbers("--qd0", qd0)
+    per_mode = f"one per mode of the body's {b.nf}"
+    start = (q_max_of(b, options.amplitudes) if q0 is not None and q0.strip() == "qmax"
+             else numbers("--q0", q0, b.nf, per_mode))
+    w0, v0 = numbers("--omega0", omega0, 3, "WX,WY,WZ"), numbers("--qd0", qd0, b.nf, per_mode)
     check_initial_state(b, w0, start, None if v0 is None else np.asarray(v0) * per_second)
     return np.array(w0) * per_second, () if start is None else start, v0 or ()
 

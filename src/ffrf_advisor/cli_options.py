@@ -114,16 +114,22 @@ def is_file(text: str) -> bool:
         return False
 
 
-def numbers(option: str, text: str | None):
-    """Numbers from a comma/blank list or a file of them; None stays None."""
+def numbers(option: str, text: str | None, count: int | None = None, what: str = ""):
+    """Finite numbers from a comma/blank list or a file of them, exactly ``count`` (``what`` they are) where
+    given: a list shorter than the modes was padded with zeros; None stays None."""
     if text is None:
         return None
     source = Path(text).read_text() if is_file(text) else text
     try:
-        return tuple(float(x) for x in source.replace(",", " ").split())
+        values = tuple(float(x) for x in source.replace(",", " ").split())
     except ValueError:
-        raise FFRFError(f"{option}: expected numbers separated by commas or blanks (or a file of them), "
-                        f"got {text!r}") from None
+        values = (math.nan,)
+    if not all(map(math.isfinite, values)):
+        raise FFRFError(f"{option}: expected finite numbers separated by commas or blanks (or a file of them), "
+                        f"got {text[:80]!r}")
+    if count is not None and len(values) != count:
+        raise FFRFError(f"{option}: expected {count} numbers ({what}), got {len(values)}")
+    return values
 
 
 def mesh_options(eigenvalues: str | None, density: float | None, young: float | None = None,

@@ -10,6 +10,7 @@ runtime coercion it would build on first use, with click's messages
 ("'x' is not a valid integer.", "0 is not in the range x>=1.") and typer's
 own path checks. Any other annotation keeps typer's coercion.
 """
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, get_args, get_origin
@@ -59,6 +60,8 @@ class PlainRuntimeParam(RuntimeParam):
             number = value if type(value) is self.leaf else self.leaf(value)
         except (TypeError, ValueError):
             raise BadParameter(f"{value!r} is not a valid {NUMBER_WORDS[self.leaf]}.", ctx=ctx, param=param) from None
+        if not math.isfinite(number):  # inf and nan parse as floats: --f-max inf wrote Infinity into JSON
+            raise BadParameter(f"{value!r} is not a finite number.", ctx=ctx, param=param)
         low, high = self.parameter_info.min, self.parameter_info.max
         if (low is not None and number < low) or (high is not None and number > high):
             bounds = " and ".join(b for b in (low is not None and f"x>={low}", high is not None and f"x<={high}")

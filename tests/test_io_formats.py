@@ -7,6 +7,7 @@ from pathlib import Path
 import meshio
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
@@ -203,7 +204,8 @@ def test_vtu_output_reads_back_to_the_same_body(tmp_path, beam):
 
 
 def test_vtu_output_refuses_what_a_mesh_cannot_hold(tmp_path, beam):
-    """An invariants-only body, a mass matrix that is not one density's, and other units in a file."""
+    """An invariants-only body, a mass matrix that is not one density's plus point masses (a negative one, a
+    lumped matrix), and other units in a file."""
     inv = tmp_path / "beam.ffinv.json"
     assert runner.invoke(app, ["convert", str(SAMPLES / "beam.ffrf.h5"), str(inv)]).exit_code == 0
     none = runner.invoke(app, ["convert", str(inv), str(tmp_path / "a.vtu")])
@@ -211,10 +213,13 @@ def test_vtu_output_refuses_what_a_mesh_cannot_hold(tmp_path, beam):
     from dataclasses import replace
     from ffrf_advisor.io import write_body
     from ffrf_advisor.errors import FFRFError
-    heavier = replace(beam, fe=replace(beam.fe, Ms=beam.fe.Ms.tolil()))
-    heavier.fe.Ms[0, 0] *= 2
-    with pytest.raises(FFRFError, match="not the consistent mass of a uniform density"):
-        write_body(replace(heavier, fe=replace(heavier.fe, Ms=heavier.fe.Ms.tocsr())), tmp_path / "b.vtu")
+    lighter = replace(beam, fe=replace(beam.fe, Ms=beam.fe.Ms.tolil()))
+    lighter.fe.Ms[0, 0] *= 0.5  # a negative point mass
+    with pytest.raises(FFRFError, match="not the consistent mass of a uniform density plus masses on nodes"):
+        write_body(replace(lighter, fe=replace(lighter.fe, Ms=lighter.fe.Ms.tocsr())), tmp_path / "b.vtu")
+    lumped = replace(beam, fe=replace(beam.fe, Ms=sp.diags_array(np.asarray(beam.fe.Ms.sum(axis=1))).tocsr()))
+    with pytest.raises(FFRFError, match="not the consistent mass of a uniform density plus masses on nodes"):
+        write_body(lumped, tmp_path / "b.vtu")
     out = tmp_path / "c.vtu"
     assert runner.invoke(app, ["convert", str(SAMPLES / "beam.ffrf.h5"), str(out)]).exit_code == 0
     out.write_text(out.read_text().replace("1000.0 0.001 1.0", "1.0 1.0 1.0"))

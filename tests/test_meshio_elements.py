@@ -18,7 +18,7 @@ from ffrf_advisor.fe.modal import free_free_modes
 from ffrf_advisor.fe.split import box_split_mesh
 from ffrf_advisor.fe.structural import BeamSection, StructuralMass, beam_mass, point_mass, shell_mass
 from ffrf_advisor.fe_body import modal_body
-from ffrf_advisor.io import read_body
+from ffrf_advisor.io import read_body, write_body
 from ffrf_advisor.io.meshio_modes import meshio_module
 from tests.test_structural import grid
 
@@ -226,6 +226,12 @@ def test_a_point_mass_with_inertia_adds_it(tmp_path, box):
     with pytest.raises(BodyFileError, match=r"point_data/rotation_1: expected mode rotations rotation_1 \.\. "
                                             r"rotation_3 \(theory 3b\) for the 1 nodes with rotary inertia"):
         _read(_box_file(tmp_path / "norot.vtu", box, **extra), box)
+    write_body(body, tmp_path / "written.vtu")  # the point mass as a vertex cell, its inertia and rotations
+    back = read_body(tmp_path / "written.vtu")
+    assert back.mass == pytest.approx(body.mass, rel=ROUND)
+    assert np.abs(back.I0 - body.I0).max() <= ROUND * np.abs(body.I0).max()
+    _same_invariants(back, body)
+    assert np.abs(back.integrals.rotary.J - body.integrals.rotary.J).max() <= ROUND * np.abs(J).max()
 
 
 def test_cells_without_their_data(tmp_path, box):
@@ -290,7 +296,8 @@ def test_vtu_writer_round_trip_and_refusal(tmp_path):
                                                                                                     6.0)]})
     opts = ["--eigenvalues", ",".join(repr(float(x)) for x in LAM), "--density", repr(STEEL.rho)]
     refused = runner.invoke(app, ["convert", str(plate), str(tmp_path / "plate_out.vtu"), *opts])
-    assert refused.exit_code == 2 and "cannot hold the rotary inertia" in refused.output
+    assert refused.exit_code == 2 and "not the consistent mass of a uniform density plus masses on nodes" \
+        in refused.output
     h5 = tmp_path / "plate.ffrf.h5"
     assert runner.invoke(app, ["convert", str(plate), str(h5), *opts]).exit_code == 0
     shell = read_body(plate, eigenvalues=LAM, density=STEEL.rho)

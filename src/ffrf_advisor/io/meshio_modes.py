@@ -15,7 +15,9 @@ and its nodal von Mises stress, the eigenvalues and frequencies, density,
 material and units as field data, and the static centrifugal deflections of the
 six load cases ``static_w1w1`` .. ``static_w2w3`` (per unit spin^2, theory 11)
 where the body has its material: ParaView opens them, and they read back to the
-same body.
+same body. Masses on nodes beyond the density's consistent mass become vertex
+cells with ``mass`` and ``inertia`` (and the modes' ``rotation_*``); a mass
+matrix of another kind (shells, beams, lumped) is refused.
 """
 from __future__ import annotations
 
@@ -284,12 +286,9 @@ def write(body: FlexibleBody, path, overwrite: bool = False) -> None:
     from ..units import TMM
     if body.fe is None:
         raise FFRFError(f"{path}: a mesh file holds nodal FE data; {body.name} has invariants only")
-    if body.fe.rotary is not None:
-        raise FFRFError(f"{path}: a mesh file cannot hold the rotary inertia of {len(body.fe.rotary.nodes)} nodes "
-                        "(theory 3b); write .ffrf.h5")
     b = body.converted(TMM)
     fe, n = b.fe, b.fe.mesh.n_nodes
-    rho = _uniform_density(b, path)
+    rho, nodes, masses = _density_and_point_masses(b, path)
     point = {f"mode_{p + 1}": fe.Phi[:, :, p] for p in range(b.nf)}
     if fe.stress_nodal is not None:
         point |= {f"von_mises_{p + 1}": fe.stress_nodal[:, p] for p in range(b.nf)}
@@ -299,7 +298,16 @@ def write(body: FlexibleBody, path, overwrite: bool = False) -> None:
         U = static_centrifugal(fe, fe.material)[1]
         point |= {f"static_{c}": U[:, j].reshape(n, 3) for j, c in enumerate(CASES)}
         field |= {"young": np.array([fe.material.E]), "poisson": np.array([fe.material.nu])}
-    mesh = meshio.Mesh(fe.mesh.points, list(fe.mesh.cells.items()), point_data=point)
+    cells, cell_data = list(fe.mesh.cells.items()), {}
+    if len(nodes):
+        J, R = np.zeros((n, 3, 3)), np.zeros_like(fe.Phi)
+        if fe.rotary is not None:
+            J[fe.rotary.nodes], R[fe.rotary.nodes] = fe.rotary.J, fe.rotary.Phi
+            point |= {f"rotation_{p + 1}": R[:, :, p] for p in range(b.nf)}
+        cell_data = {"mass": [*(np.full(len(c), np.nan) for _, c in cells), masses],
+                     "inertia": [*(np.full((len(c), 9), np.nan) for _, c in cells), J[nodes].reshape(-1, 9)]}
+        cells.append(("vertex", nodes[:, None]))
+    mesh = meshio.Mesh(fe.mesh.points, cells, point_data=point, cell_data=cell_data)
     with atomic_path(path, overwrite) as tmp:
         meshio.write(tmp, mesh, file_format="vtu")
         _add_field_data(tmp, field)
@@ -320,11 +328,26 @@ def _add_field_data(path, field: dict) -> None:
     tree.write(path, xml_declaration=True, encoding="utf-8")
 
 
-def _uniform_density(body: FlexibleBody, path) -> float:
-    """The one density whose consistent mass matrix is the body's (a mesh file holds no mass matrix)."""
+POINT_MASS_TOL = 1e-12  # of the largest mass entry: the round-off of an assembled mass matrix
+
+
+def _density_and_point_masses(body: FlexibleBody, path) -> tuple[float, np.ndarray, np.ndarray]:
+    """The density whose consistent mass the body's mass matrix is, plus masses on nodes (written as vertex
+    cells): rho from the off-diagonal entries, which point masses do not touch, by least squares; what remains
+    on the diagonal is the nodes' point masses, (nodes, masses). Nodes with rotary inertia must be among them.
+    A mesh file holds no mass matrix: any other one is refused."""
     fe = body.fe
-    rho = body.mass / float(mass_matrix(fe.mesh, 1.0).sum())
-    if abs(mass_matrix(fe.mesh, rho) - fe.Ms).max() > 1e-12 * abs(fe.Ms).max():
-        raise FFRFError(f"{path}: a mesh file holds one density; {body.name}'s mass matrix is not the consistent "
-                        "mass of a uniform density (added or lumped masses): write .ffrf.h5")
-    return rho
+    M1 = mass_matrix(fe.mesh, 1.0) if fe.mesh.cells else sp.csr_array(fe.Ms.shape)
+    off1, off = (sp.csr_array(M - sp.diags_array(M.diagonal())) for M in (M1, fe.Ms))
+    fit = float(off1.multiply(off1).sum())
+    rho = float(off.multiply(off1).sum()) / fit if fit > 0 else 0.0
+    extra = sp.csr_array(fe.Ms - rho * M1)
+    tol = POINT_MASS_TOL * abs(fe.Ms).max()
+    d = extra.diagonal()
+    nodes = np.flatnonzero(d > tol)
+    rotary = np.array([], np.int64) if fe.rotary is None else fe.rotary.nodes
+    if rho <= 0 or abs(extra - sp.diags_array(d)).max() > tol or d.min() < -tol or np.setdiff1d(rotary, nodes).size:
+        raise FFRFError(f"{path}: a mesh file holds one density and point masses; {body.name}'s mass matrix is not "
+                        "the consistent mass of a uniform density plus masses on nodes with any rotary inertia "
+                        "(shells, beams, lumped mass): write .ffrf.h5")
+    return rho, nodes, d[nodes]

@@ -8,8 +8,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import BodyFileError
-from ..fe.assembly import full_mass, mass_matrix, stiffness_matrix
-from ..fe.elements import EDGES
+from ..fe.assembly import full_mass, stiffness_matrix
+from ..fe.elements import EDGES, element_type
 from ..fe.material import Material
 from ..fe.mesh import Mesh
 from ..fe.modal import rigid_modes, rigid_residual
@@ -23,9 +23,13 @@ MATCH_TOL = 1e-9  # max |K_elements - K_full| / max |K| on the unconstrained DOF
 # matches to 3e-13; 3x3x3 is off by 7e-2
 GAUSS_ORDERS = (2, 3)  # SOLID186 bricks: 2x2x2 (KEYOPT(2)=0, the default) or 3x3x3 (KEYOPT(2)=1)
 BRICKS = {"hexahedron", "hexahedron20"}  # the cells the Gauss orders apply to; other shapes: their own rule
-MOMENT_TOL = 1e-9  # m, CoM and second moments of the .full's Ms against the elements': round-off (the example: 1e-12)
-# where MAPDL's rules integrate fields of degree 2 exactly (bricks at 3x3x3, tetrahedra, undistorted shapes); a
-# distorted wedge at its 3-point triangle rule may differ more (a warning in the note, the .full's mass is used)
+MOMENT_TOL = 1e-3  # m, CoM and second moments of the .full's Ms against the elements': round-off (the example: 1e-12)
+# where both integrate degree-2 fields exactly (straight elements); MAPDL's rules (SOLID187: 4 points) and the
+# ones used here are not exact on curved ones: on a ring of 15-degree tetra10 at 2 points per direction the second
+# moments move by 7e-5 (4e-6 at 7.5 degrees). A wrong density, form or missing part moves them by more.
+STRAIGHT_ORDER = {"tetra": 2, "wedge": 3, "pyramid": 3, "hexahedron": 3}  # points per direction exact for rho x x^T
+# det J of straight elements: degree 2 in total on a tetrahedron (affine), <= 4 per coordinate on a distorted brick
+CHUNK = 20_000  # elements per block of quadrature points (ne x nq x 3 x 3 Jacobians: 39 MB at 27 points)
 VOIGT = [[0, 3, 5], [3, 1, 4], [5, 4, 2]]  # the tensor's entries among MAPDL's SX, SY, SZ, SXY, SYZ, SXZ
 
 
@@ -42,32 +46,52 @@ def scalar_mass(run: AnsysRun) -> sp.csr_array:
 
 
 def mass_agreement(run: AnsysRun, Ms: sp.csr_array, length: float, mass: float) -> str:
-    """The .full's Ms against the elements' consistent mass (each material's DENS) on the nodal sums of theory 3:
-    total mass, centre of mass and second moments about it; MASS21's point masses are the .full's alone."""
+    """The .full's Ms against the elements (each material's DENS) on the nodal sums of theory 3: mass, centre of
+    mass and second moments about it, 1^T Ms 1, X^T Ms 1, X^T Ms X, which are int rho (1, x, x x^T) dV for the
+    isoparametric x (integrated here by rules exact on straight elements); MASS21's point masses are the .full's."""
     dens = {m: d.get("DENS", 0.0) * mass / length**3 for m, d in run.materials.items()}
     used = sorted({int(m) for ms in run.cell_material.values() for m in ms})
     if not run.cells or not all(dens.get(m, 0.0) > 0 for m in used):
         return "mass: the .full's (not checked against the elements: " + \
             ("no solid elements)" if not run.cells else "a material without DENS)")
-    own = sum(mass_matrix(Mesh(run.points, {t: c[run.cell_material[t] == m] for t, c in run.cells.items()}),
-                          dens[m]) for m in used)
-    (m0, c0, S0), (m1, c1, S1) = _moments(Ms, run.points), _moments(own, run.points)
-    size = float(np.ptp(run.points, axis=0).max())
+    ones = np.ones(len(run.points))
+    (m0, c0, S0), (m1, c1, S1) = _central(ones @ Ms @ ones, run.points.T @ (Ms @ ones),
+                                          run.points.T @ (Ms @ run.points)), _central(*_element_moments(run, dens))
     if run.element_types.get("MASS21"):
         return (f"mass: the .full's; its solid elements' {m1:.6g} of it, {m0 - m1:.6g} the .full's own from "
                 f"{run.element_types['MASS21']} MASS21")
+    size = float(np.ptp(run.points, axis=0).max())
     off = max(abs(m0 - m1) / m0, float(np.abs(c0 - c1).max()) / size, float(np.abs(S0 - S1).max() / np.abs(S0).max()))
     return (f"mass: the .full's; the elements' (DENS of material {', '.join(map(str, used))}) give its mass, centre "
             f"of mass and second moments within {off:.2g}" + ("" if off <= MOMENT_TOL else
                                                               " (warning: the elements are not the .full's model)"))
 
 
-def _moments(Ms: sp.sparray, X: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Nodal sums (theory 3): mass m, centre of mass c and the second moments (X - c)^T Ms (X - c)."""
-    w = Ms @ np.ones(len(X))
-    m = float(w.sum())
-    c = w @ X / m
-    return m, c, (X - c).T @ (Ms @ (X - c))
+def _element_moments(run: AnsysRun, dens: dict[int, float]) -> tuple[float, np.ndarray, np.ndarray]:
+    """int rho dV, int rho x dV and int rho x x^T dV over the cells, exact on straight elements."""
+    m, first, second = 0.0, np.zeros(3), np.zeros((3, 3))
+    for name, conn in run.cells.items():
+        etype = element_type(name)
+        xi, w = etype.gauss_rule(STRAIGHT_ORDER[etype.family])
+        N, dN = etype.shape(xi)
+        rho = np.vectorize(dens.__getitem__, otypes=[float])(run.cell_material[name])
+        for start in range(0, len(conn), CHUNK):
+            coords = run.points[conn[start:start + CHUNK]]
+            detJ = np.linalg.det(np.einsum("qna,enb->eqab", dN, coords, optimize=True))
+            if np.any(detJ <= 0):
+                raise BodyFileError(run.source, "elements", "elements with a positive Jacobian (MAPDL's node order)",
+                                    f"{name} cell {start + int(np.argwhere(detJ <= 0)[0, 0])} inverted")
+            dV = detJ * w * rho[start:start + CHUNK, None]
+            x = np.einsum("qn,enk->eqk", N, coords)
+            m, first = m + dV.sum(), first + np.einsum("eq,eqk->k", dV, x)
+            second = second + np.einsum("eq,eqk,eql->kl", dV, x, x)
+    return m, first, second
+
+
+def _central(m: float, first: np.ndarray, second: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass, centre of mass and second moments about it from int rho (1, x, x x^T) dV."""
+    c = first / m
+    return float(m), c, second - m * np.outer(c, c)
 
 
 def material_of(run: AnsysRun, length: float, mass: float) -> tuple[Material | None, str]:

@@ -168,7 +168,7 @@ def test_beams_read_with_sections_and_rotations(tmp_path, cell_type):
 def test_point_masses_read_with_the_mass_right(tmp_path):
     """A box of hexahedra with a point mass of half its mass at a corner: the solver's modes with that mass
     added, read back with mass rho V + m and I0 of box plus point about their joint CoM (analytic), the
-    solver's invariants, checks passing; a point mass with inertia adds it to I0 (rotations given)."""
+    solver's invariants and static centrifugal response (with --young, --poisson), checks passing."""
     mesh = box_mesh(SIZE, (2, 1, 1), "hexahedron20")
     box_mass = STEEL.rho * SIZE.prod()
     corner = int(np.argmax(mesh.points @ [1.0, 1.0, 1.0]))
@@ -177,7 +177,9 @@ def test_point_masses_read_with_the_mass_right(tmp_path):
     cells = [*ref.fe.mesh.cells.items(), ("vertex", np.array([[corner]]))]  # nodes keep their numbers
     cell_data = {"mass": [np.full(len(c), np.nan) for _, c in cells[:-1]] + [np.array([m])]}
     path = _write(tmp_path / "pm.vtu", ref.fe.mesh.points, cells, ref.fe.Phi, cell_data=cell_data)
-    body = read_body(path, eigenvalues=ref.eigenvalues, density=STEEL.rho)
+    body = read_body(path, eigenvalues=ref.eigenvalues, density=STEEL.rho, young=STEEL.E, poisson=STEEL.nu)
+    # the static centrifugal response with the point mass's load, as the solver's (one refactorisation apart)
+    assert body.static_centrifugal.compliance == pytest.approx(ref.static_centrifugal.compliance, rel=1e-10)
     d = mesh.points[corner]  # the box centred at 0: the corner at d, the joint CoM at d m / (M + m)
     com = d * m / (box_mass + m)
     a, b, c = SIZE

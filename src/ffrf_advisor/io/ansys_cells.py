@@ -52,17 +52,19 @@ def cells_of(rst, elem, routines: np.ndarray, nodes: np.ndarray) \
     """The solid elements as meshio cells (node indices, VTK order) and each cell's element row; MASS21 and
     MESH200 make no cells. A degenerate form MAPDL does not define, a removed mid-side node or a node that is
     not in the mesh is refused naming the element."""
-    groups: dict[tuple[int, int], list[int]] = {}
-    for k, (e, routine) in enumerate(zip(elem, routines)):
-        if int(routine) not in NO_SOLUTION and int(routine) != POINT_MASS:
-            groups.setdefault((int(routine), len(e) - HEADER_WORDS), []).append(k)
+    sizes = np.fromiter((len(e) for e in elem), np.int64, len(elem))
+    flat = np.concatenate(elem).astype(np.int64) if len(elem) else np.zeros(0, np.int64)
+    starts = np.cumsum(sizes) - sizes + HEADER_WORDS
+    routines = np.asarray(routines, np.int64)
+    solid = ~np.isin(routines, [*NO_SOLUTION, POINT_MASS])
     cells: dict[str, list] = {}
     rows: dict[str, list] = {}
-    for key, ks in groups.items():
-        conn = np.array([np.asarray(elem[k][HEADER_WORDS:], np.int64) for k in ks])
-        for kind, (order, picked) in _shapes(rst, key, conn, np.asarray(ks), elem).items():
+    for routine, size in sorted(set(zip(routines[solid].tolist(), sizes[solid].tolist()))):
+        ks = np.flatnonzero(solid & (routines == routine) & (sizes == size))
+        conn = flat[starts[ks, None] + np.arange(size - HEADER_WORDS)]
+        for kind, (order, picked) in _shapes(rst, (routine, size - HEADER_WORDS), conn, ks, elem).items():
             cells.setdefault(kind, []).append(_indices(rst, conn[picked][:, order], nodes))
-            rows.setdefault(kind, []).append(np.asarray(ks)[picked])
+            rows.setdefault(kind, []).append(ks[picked])
     return {t: np.concatenate(c) for t, c in cells.items()}, {t: np.concatenate(r) for t, r in rows.items()}
 
 

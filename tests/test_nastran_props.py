@@ -30,6 +30,12 @@ def test_a_real_beams_mass_agrees_with_its_weight_generator_and_pyNastran_and_a_
     notes = nastran_props.checked(BEAM, m, mass, run.points, True)
     assert "grid point weight generator" in notes[0]
     assert all(f"{q} within" in notes[1] for q in ("mass", "CG", "inertia")) and "approximates" not in notes[1]
+    m.add_param("WTMASS", [0.5])  # Nastran's mass halved; its weight generator divides WTMASS out
+    halved = nastran_mass.assembled_mass(BEAM, m, run)
+    assert halved.Ms.sum() == pytest.approx(0.5 * mass.Ms.sum(), rel=ROUND)
+    notes = nastran_props.checked(BEAM, m, halved, run.points, True)
+    assert "grid point weight generator" in notes[0] and all(f"{q} within" in notes[1] for q in ("mass", "inertia"))
+    del m.params["WTMASS"]
     gpwg = next(iter(m.grid_point_weight.values()))
     gpwg.mass = np.asarray(gpwg.mass) * (1 + 1e-5)  # 10 x the tolerance
     with pytest.raises(BodyFileError, match=r"beam_modes_m1\.op2: grid point weight generator \(PARAM,GRDPNT\): "

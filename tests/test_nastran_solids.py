@@ -411,3 +411,22 @@ def test_a_deck_beside_the_op2_with_mirrored_wedges_reads_and_an_inverted_one_is
     result = CliRunner().invoke(app, ["info", str(tmp_path / "part.op2")])
     assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
     assert "part.op2: CPENTA 1: expected an element whose Jacobian is positive" in result.output
+
+
+def test_param_wtmass_of_the_deck_scales_the_mass_as_nastran_does_and_the_checks_divide_it_out(tmp_path):
+    from ffrf_advisor.fe.modal import rigid_modes
+    from ffrf_advisor.io import nastran
+
+    points, cells = _corner_cells("CHEXA", counts=(2, 1, 1))
+    n = len(points)
+    modes = np.zeros((6, n, 6))
+    modes[:, :, :3] = rigid_modes(points).reshape(n, 3, 6).transpose(2, 0, 1)
+    _write_op2(tmp_path / "part.op2", _model(np.zeros((0, 3)), [], "CHEXA"), points, np.zeros(6), modes)
+    model = _model(points, cells, "CHEXA")
+    model.add_param("WTMASS", [0.25])
+    model.write_bdf(str(tmp_path / "part.bdf"))
+    (tmp_path / "part.bdf").write_text("SOL 103\nCEND\n" + (tmp_path / "part.bdf").read_text())
+    run, mass, _ = nastran.parse(tmp_path / "part.op2")
+    assert nastran_props.of_nodal_mass(mass, run.points).mass == pytest.approx(0.25 * RHO * BOX.prod(), rel=ROUND)
+    notes = " ".join(mass.notes)
+    assert "times PARAM,WTMASS 0.25" in notes and all(f"{q} within" in notes for q in ("mass", "CG", "inertia"))

@@ -79,13 +79,14 @@ def _parse_and_assemble(path, pch: str | None, deck: str | None, free_free: bool
 
 
 def _geometry_from_deck(m, deck: str) -> None:
-    """Grids, frames, elements, properties, materials and masses of the input deck, into the OP2's model."""
+    """Grids, frames, elements, properties, materials, masses and parameters of the input deck, into the OP2's
+    model."""
     from pyNastran.bdf.bdf import read_bdf
 
     check_file_size(deck, DECK_FACTOR)
     geometry = quietly(deck, "an input deck pyNastran can read with its INCLUDE files", read_bdf, deck, xref=True,
                        validate=False, punch=not _has_bulk_section(deck))
-    for name in ("nodes", "coords", "elements", "masses", "properties", "materials"):
+    for name in ("nodes", "coords", "elements", "masses", "properties", "materials", "params"):
         setattr(m, name, getattr(geometry, name))
 
 

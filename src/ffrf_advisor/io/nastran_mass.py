@@ -58,12 +58,23 @@ def assembled_mass(path, m, run: NastranModes) -> NodalMass:
         block = nastran_solids.solid_mass(path, run.points, cell, conn, np.array(eids), rho)
         Ms = Ms + sp.block_diag([block, sp.csr_array((k, k))]).tocsr()
     mirrored = sum(int(c[3].sum()) for c in cells)
+    w = wtmass(path, m)
     notes = [f"mass assembled from {', '.join(f'{v} {t}' for t, v in run.element_types.items())}"
              + (f"; {k} CONM2 with an offset CG as nodes moving rigidly with their grid" if k else "")
-             + (f"; {mirrored} solids of the other handedness renumbered" if mirrored else "")]
-    return NodalMass(sp.csr_array(Ms), np.concatenate([J, np.array([e[3] for e in extra]).reshape(k, 3, 3)]),
+             + (f"; {mirrored} solids of the other handedness renumbered" if mirrored else "")
+             + (f"; times PARAM,WTMASS {w:g}, as Nastran's mass matrix" if w != 1 else "")]
+    return NodalMass(sp.csr_array(Ms * w), w * np.concatenate([J, np.array([e[3] for e in extra]).reshape(k, 3, 3)]),
                      np.array([e[0] for e in extra]).reshape(k, 3), np.array([e[1] for e in extra], np.int64),
                      notes, solids=cells)
+
+
+def wtmass(path, m) -> float:
+    """PARAM,WTMASS of the model (1 without it): Nastran multiplies the mass of every card by it."""
+    card = getattr(m, "params", {}).get("WTMASS")
+    w = 1.0 if card is None else float(card.values[0])
+    if not (np.isfinite(w) and w > 0):
+        raise BodyFileError(path, "PARAM,WTMASS", "a positive factor", f"{w:g}")
+    return w
 
 
 def _element_mass(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: np.ndarray) -> dict:

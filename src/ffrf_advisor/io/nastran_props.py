@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import BodyFileError, FFRFError
 from ..fe.elements import element_type
-from .nastran_mass import LINES, SHELLS, NodalMass
+from .nastran_mass import LINES, SHELLS, NodalMass, wtmass
 from .pynastran import quietly
 
 PROPS_TOL = 1e-6  # relative: OP2 grids are float32 (6e-8), so right prisms are right to ~1e-7 of the body
@@ -49,32 +49,33 @@ def of_nodal_mass(mass: NodalMass, points: np.ndarray) -> Properties:
 
 def checked(path, m, mass: NodalMass, points: np.ndarray, assembled: bool) -> list[str]:
     """Notes on the nodal mass against the grid point weight generator's mass and (assembled from the model's
-    elements) pyNastran's mass properties; a disagreement beyond their precision is a BodyFileError."""
-    ours = of_nodal_mass(mass, points)
-    notes = _against_gpwg(path, m, ours, mass.what)
+    elements) pyNastran's mass properties (with PARAM,WTMASS, which the weight generator divides out); a
+    disagreement beyond their precision is a BodyFileError."""
+    ours, w = of_nodal_mass(mass, points), wtmass(path, m)
+    notes = _against_gpwg(path, m, ours.mass / w, mass.what)
     if not assembled:
         return notes
     count = len(m.elements) + len(m.masses)
     if count > MAX_ELEMENTS:
         return notes + [f"pyNastran's mass properties not compared: {count} elements, over the {MAX_ELEMENTS} "
                         "its loop over the cards takes in seconds"]
-    return notes + _against_pynastran(path, m, mass, points, ours)
+    return notes + _against_pynastran(path, m, mass, points, ours, w)
 
 
-def _against_gpwg(path, m, ours: Properties, what: str) -> list[str]:
+def _against_gpwg(path, m, ours: float, what: str) -> list[str]:
     tables = getattr(m, "grid_point_weight", None) or {}
     if not tables:
         return []
     gpwg = next(iter(tables.values()))
     theirs = float(np.asarray(gpwg.mass, dtype=float)[0])
-    error = abs(ours.mass / theirs - 1)
+    error = abs(ours / theirs - 1)
     if not error <= GPWG_TOL:
         raise BodyFileError(path, "grid point weight generator (PARAM,GRDPNT)", f"its mass to agree with {what} "
-                            f"within {GPWG_TOL:g}", f"Nastran's {theirs:.7g} against {ours.mass:.7g}")
+                            f"within {GPWG_TOL:g}", f"Nastran's {theirs:.7g} against {ours:.7g}")
     return [f"mass within {error:.1g} of Nastran's grid point weight generator"]
 
 
-def _against_pynastran(path, m, mass: NodalMass, points: np.ndarray, ours: Properties) -> list[str]:
+def _against_pynastran(path, m, mass: NodalMass, points: np.ndarray, ours: Properties, w: float) -> list[str]:
     from pyNastran.bdf.mesh_utils.mass_properties import mass_properties
 
     try:
@@ -90,7 +91,7 @@ def _against_pynastran(path, m, mass: NodalMass, points: np.ndarray, ours: Prope
     size = max(float(np.ptp(points, axis=0).max()), np.finfo(float).tiny)
     errors = {"mass": abs(ours.mass / theirs.mass - 1) if theirs.mass else np.inf,
               "CG": float(np.linalg.norm(ours.cg - theirs.cg)) / size,
-              "inertia": _inertia_error(ours.inertia - theirs.inertia - own_inertia(m, mass, points),
+              "inertia": _inertia_error(ours.inertia - theirs.inertia - w * own_inertia(m, mass, points),
                                         float(np.abs(ours.inertia).max()))}
     for q in QUANTITIES:
         if q not in skipped and not errors[q] <= PROPS_TOL:

@@ -65,3 +65,30 @@ def l_bracket(kind: str, size: float = 8.0) -> Mesh:
     conn = _gmsh_to_meshio_order(kind, nodes.astype(np.int64).reshape(-1, N_NODES[kind]))
     used, inverse = np.unique(conn, return_inverse=True)  # the nodes of the volume's elements, numbered from 0
     return Mesh(points[used], {kind: inverse.reshape(conn.shape).astype(np.int64)})
+
+
+def l_profile(size: float = 8.0) -> tuple[np.ndarray, np.ndarray]:
+    """The bracket's profile (z = 0) meshed in 8-node quadrilaterals: points (n, 3), quad8 cells (VTK order, which
+    is CalculiX's S8 order)."""
+    import gmsh
+
+    gmsh.initialize(["-noenv"], readConfigFiles=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        face = _profile(gmsh)
+        gmsh.model.occ.synchronize()
+        gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+        gmsh.option.setNumber("Mesh.MeshSizeMin", size / 2)
+        gmsh.model.mesh.setRecombine(2, face)
+        gmsh.option.setNumber("Mesh.RecombinationAlgorithm", 1)
+        gmsh.option.setNumber("Mesh.SecondOrderIncomplete", 1)
+        gmsh.model.mesh.generate(2)
+        gmsh.model.mesh.setOrder(2)
+        tags, coords, _ = gmsh.model.mesh.getNodes()
+        _, nodes = gmsh.model.mesh.getElementsByType(16)  # gmsh's 8-node quadrangle, VTK order
+    finally:
+        gmsh.finalize()
+    points = np.zeros((int(tags.max()) + 1, 3))
+    points[tags.astype(np.int64)] = coords.reshape(-1, 3)
+    used, inverse = np.unique(nodes.astype(np.int64), return_inverse=True)
+    return points[used], inverse.reshape(-1, 8)

@@ -162,7 +162,7 @@ def _modes(frd: Frd, index: dict, stem: Path):
 
 def _mass(frd, deck, mesh, Phi, stress, index, stem):
     """Ms, K, mesh, Phi and stress with any spider REF NODEs carrying masses appended, and notes."""
-    Ms, K, why = stored_matrices(stem, index)
+    Ms, K, why = stored_matrices(stem, index, frd.ids, mesh.points, {} if deck is None else deck.nodes)
     if Ms is not None:
         stored = "mass and stiffness" if K is not None else "mass"
         files = ".mas/.dof/.sti" if K is not None else ".mas/.dof"

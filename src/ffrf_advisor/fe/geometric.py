@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from .assembly import _blocks, _chunks, element_gradients
+from .assembly import _blocks, _chunks, element_gradients, scattered, summed
 from .material import Material
 from .mesh import Mesh
 
@@ -32,15 +32,9 @@ def _element_geometric(etype, coords: np.ndarray, material: Material, ue: np.nda
 def geometric_scalar(mesh: Mesh, material: Material, u: np.ndarray) -> sp.csr_array:
     """``Ks`` (n x n) of the prestress of the displacement field u (n, 3); K_G = kron(Ks, I3)."""
     n = mesh.n_nodes
-    Ks = sp.csr_array((n, n))
-    for etype, conn in _blocks(mesh):
-        for part in _chunks(conn, etype.n_nodes**2 * 9):
-            c = conn[part]
-            Ke = _element_geometric(etype, mesh.points[c], material, u[c])
-            rows = np.broadcast_to(c[:, :, None], Ke.shape)
-            cols = np.broadcast_to(c[:, None, :], Ke.shape)
-            Ks = Ks + sp.coo_array((Ke.ravel(), (rows.ravel(), cols.ravel())), shape=(n, n)).tocsr()
-    return sp.csr_array(Ks)
+    return summed((scattered(_element_geometric(etype, mesh.points[conn[part]], material, u[conn[part]]),
+                             conn[part], n)
+                   for etype, conn in _blocks(mesh) for part in _chunks(conn, etype.n_nodes**2 * 9)), (n, n))
 
 
 def modal_geometric(mesh: Mesh, material: Material, Phi: np.ndarray, U: np.ndarray) -> np.ndarray:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from ffrf_advisor.checks import run_checks
+from ffrf_advisor.checks import density_warnings, run_checks
 from ffrf_advisor.cli import app
 from ffrf_advisor.errors import BodyFileError
 from ffrf_advisor.fe.material import STEEL
@@ -137,6 +137,8 @@ def test_shells_read_with_thickness_and_rotations(tmp_path, cell_type):
     assert body.mass == pytest.approx(mass, rel=ROUND)
     assert _principal(body.I0) == pytest.approx(_box_inertia(mass, (200.0, 80.0, t)), rel=ROUND)
     assert np.diag(body.integrals.rotary.modal_mass).min() > 0.01  # the rotations matter
+    assert np.sort(body.equivalent_box()) == pytest.approx([t, 80.0, 200.0], rel=1e-12)  # fibres give the thickness
+    assert density_warnings(body) == ()  # a box of zero thickness was infinitely dense
     _passes(body)
     assert f"{len(cells)} {cell_type} shells" in body.provenance.notes[2]
 

@@ -293,9 +293,12 @@ class FlexibleBody:
         return float(self.equivalent_box().max())
 
     def equivalent_box(self) -> np.ndarray:
-        """Edges of the solid box with the body's mass and principal second moments about its CoM."""
+        """Edges of the solid box with the body's mass and principal second moments about its CoM; nodal rotary
+        inertia (theory 3b: a shell's fibres, a beam's section) counts as the second moments S = tr(I0)/2 - I0 it
+        adds (a flat shell would otherwise be a box of zero thickness)."""
         J = self.integrals.shifted(self.com)
-        return np.sqrt(12 * np.clip(np.linalg.eigvalsh(J.I), 0, None) / self.mass)
+        S = J.I if J.rotary is None else np.trace(J.I0()) / 2 * np.eye(3) - J.I0()
+        return np.sqrt(12 * np.clip(np.linalg.eigvalsh(S), 0, None) / self.mass)
 
     # --- transformations ----------------------------------------------------
     def in_principal_frame(self) -> tuple["FlexibleBody", np.ndarray, np.ndarray]:

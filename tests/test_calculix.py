@@ -257,3 +257,36 @@ def test_a_deck_density_that_is_not_positive_is_one_line(jobs, tmp_path, density
     (tmp_path / "d.inp").write_text("\n".join(deck) + "\n")
     with pytest.raises(BodyFileError, match=r"d\.inp: \*DENSITY: expected a finite positive density"):
         read_body(tmp_path / "d.frd")
+
+
+def _with_cards(jobs, tmp_path, cards: list[str]) -> Path:
+    """The ASCII run's .frd, .dat and deck with ``cards`` added before the step (the .frd is not solved again)."""
+    for suffix in (".frd", ".dat"):
+        shutil.copy(jobs["ascii"].with_suffix(suffix), tmp_path / f"c{suffix}")
+    deck = jobs["ascii"].with_suffix(".inp").read_text().replace("*STEP", "\n".join(cards) + "\n*STEP")
+    (tmp_path / "c.inp").write_text(deck)
+    return tmp_path / "c.frd"
+
+
+@pytest.mark.parametrize("cards, message", [
+    (["*ELEMENT, TYPE=MASS, ELSET=PM", "9001, 1", "*ROTARY INERTIA, ELSET=PM", "1., 1., 1., 0., 0., 0."],
+     r"c\.inp: \*ROTARY INERTIA: expected cards CalculiX 2\.20 reads.*got \*ROTARY INERTIA, ELSET=PM"),
+    (["*NODE", "9001, 0., 0., 0.", "9002, 0., 0., 0.", "*NSET, NSET=S", "1, 2, 3",
+      "*RIGID BODY, NSET=S, REF NODE=9001, ROT NODE=9002", "*ELEMENT, TYPE=MASS, ELSET=PM", "9001, 9002",
+      "*MASS, ELSET=PM", "0.001"], r"c\.inp: \*MASS: expected masses on nodes that move.*ROT NODE"),
+    (["*NODE", "9001, 0., 0., 0.", "*ELEMENT, TYPE=MASS, ELSET=PM", "9001, 9001", "*MASS, ELSET=PM", "0.001"],
+     r"c\.inp: \*MASS: expected .*got a mass on node 9001, which no element of the \.frd holds"),
+])
+def test_cards_the_tool_cannot_carry_are_refused_by_name(jobs, tmp_path, cards, message):
+    """Never dropped: rotary inertia (CalculiX 2.20 ignores it), a mass on a ROT NODE (rotations, not a position's
+    displacement), a mass on a node that nothing the .frd holds moves."""
+    with pytest.raises(BodyFileError, match=message):
+        read_body(_with_cards(jobs, tmp_path, cards))
+
+
+def test_a_point_mass_on_a_node_of_the_frd_is_added_and_the_dat_total_refuses_the_difference(jobs, tmp_path):
+    """The ASCII run was solved without the mass: with a *MASS card added to its deck the body's mass is the .dat's
+    plus the point (the card read), and the .dat's effective-mass total names the difference."""
+    frd = _with_cards(jobs, tmp_path, ["*ELEMENT, TYPE=MASS, ELSET=PM", "9001, 1", "*MASS, ELSET=PM", "1e-6"])
+    with pytest.raises(BodyFileError, match=r"c\.dat: TOTAL EFFECTIVE MASS: expected the total mass of the body"):
+        read_body(frd)

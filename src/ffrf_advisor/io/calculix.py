@@ -28,7 +28,8 @@ from ..fe.stress import von_mises
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from .calculix_deck import Deck, deck_density, deck_material, read_deck, text_lines, write_deck  # noqa: F401
 from .calculix_frd import ASCII_DIGITS, NAMES, SOLIDS, Frd
-from .calculix_mass import carried_masses, check_modal_masses, check_total_mass, stored_matrices, with_point_masses
+from .calculix_mass import (carried_masses, check_modal_masses, check_total_mass, refuse_rotary_inertia,
+                            stored_matrices, with_point_masses)
 
 # CalculiX integrates these elements' mass at too few points for N_a N_b: its modes are those of another mass
 # (their modal masses with the exact one off by 7.7 % (C3D4) and 4.4 % (C3D6) on the test bracket)
@@ -170,7 +171,7 @@ def _mass(frd, deck, mesh, Phi, stress, index, stem):
     Ms = _assembled(frd, deck, mesh, why, stem)
     notes = ["mass: consistent, assembled from the mesh and *DENSITY of the deck" + (f" (not the .mas: {why})"
                                                                                    if why else "")]
-    if deck is None or not deck.masses and not deck.rotary:
+    if deck is None or not deck.masses:
         return Ms, None, mesh, Phi, stress, notes
     masses, points, motion = carried_masses(deck, mesh.points, Phi, index, frd.digits, _element_nodes(frd))
     n = len(index) + len(points)
@@ -191,6 +192,7 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     index = {int(n): k for k, n in enumerate(frd.ids)}
     stem = Path(path).with_suffix("")
     deck = read_deck(stem.with_suffix(".inp"))
+    refuse_rotary_inertia(deck)
     cells = _solid_cells(frd, deck, index)
     points, from_deck = _precise_points(frd, deck)
     modes, lam, source, Phi, stress = _modes(frd, index, stem)

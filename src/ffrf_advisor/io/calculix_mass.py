@@ -142,13 +142,17 @@ def _rigid_nodes(deck: Deck, body_card, element_nodes) -> list[int]:
     return sorted({n for e in deck.members(deck.elsets, body_card.elset or "") for n in element_nodes(e)})
 
 
-def point_masses(deck: Deck, index: dict[int, int]) -> list[tuple[int, float]]:
-    """(node, mass) of every ``*MASS`` element of the deck; rotary inertia is refused by name (CalculiX 2.20
-    does not read it: it warns and leaves it out of its modes)."""
-    if deck.rotary:
+def refuse_rotary_inertia(deck: Deck | None) -> None:
+    """*ROTARY INERTIA is refused by name: CalculiX 2.20 does not read it (it warns 'card image cannot be
+    interpreted' and solves without it), so neither its modes nor its .mas hold it."""
+    if deck is not None and deck.rotary:
         deck.fail("*ROTARY INERTIA", "cards CalculiX 2.20 reads (it warns 'card image cannot be interpreted' and "
                   "solves without the rotary inertia); model it as point masses on a *RIGID BODY's nodes",
                   f"*ROTARY INERTIA, ELSET={deck.rotary[0]}")
+
+
+def point_masses(deck: Deck) -> list[tuple[int, float]]:
+    """(node, mass) of every ``*MASS`` element of the deck."""
     out = []
     for elset, m in deck.masses:
         for e in deck.members(deck.elsets, elset):
@@ -164,7 +168,7 @@ def carried_masses(deck: Deck, frd_points: np.ndarray, U: np.ndarray, index: dic
     rot = {b.rot for b in deck.rigid if b.rot}
     refs = {b.ref: b for b in deck.rigid if b.ref}
     on_frd, points, motion, extra = [], [], [], {}
-    for node, m in point_masses(deck, index):
+    for node, m in point_masses(deck):
         if node in rot:
             deck.fail("*MASS", "masses on nodes that move (a ROT NODE's values are rotations)",
                       f"a mass on node {node}, the ROT NODE of a *RIGID BODY")

@@ -1,6 +1,7 @@
 """ANSYS MAPDL modal results (issue 27, item 1): the .rst and .full that ansys-mapdl-reader ships, a 1 x 1 x 5 in
 titanium bar of 40 SOLID186 whose run holds its first six flexible modes; its .full was written with the
-z = 0 face held (63 DOFs: their couplings are not in its K)."""
+z = 0 face held (63 DOFs: their couplings are not in its K). Other element types and their degenerate forms:
+tests/test_ansys_cells.py."""
 from __future__ import annotations
 
 import os

@@ -227,8 +227,9 @@ def test_a_form_mapdl_does_not_define_is_refused_naming_the_element(change, fiel
 # ---------------------------------------------------------------- element types refused by name
 def test_shells_beams_and_rotary_masses_are_refused_by_name():
     with pytest.raises(BodyFileError) as e:
-        refuse_unreadable("a.rst", ["SOLID187", "SHELL181", "BEAM188", "BEAM188"], ["UX", "UY", "UZ", "ROTX"])
-    assert "got BEAM188 (2 elements), SHELL181 (1 elements)" in str(e.value) and "Nastran run" in str(e.value)
+        refuse_unreadable("a.rst", ["SOLID187", "SHELL181", "BEAM188", "BEAM188", "MPC184"], ["UX", "UY", "UZ", "ROTX"])
+    assert "got BEAM188 (2 elements), MPC184 (1 elements), SHELL181 (1 elements)" in str(e.value)
+    assert "Nastran run" in str(e.value)
     with pytest.raises(BodyFileError, match=r"a\.rst: DOFs: .* got MASS21 with rotary inertia \(KEYOPT\(3\)=0\)"):
         refuse_unreadable("a.rst", ["SOLID186", "MASS21"], ["UX", "UY", "UZ", "ROTX", "ROTY", "ROTZ"])
     refuse_unreadable("a.rst", ["SOLID186", "MASS21", "MESH200"], ["UX", "UY", "UZ"])  # read

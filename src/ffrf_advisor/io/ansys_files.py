@@ -19,8 +19,9 @@ from .ansys_cells import cells_of, refuse_unreadable
 from .limits import Budget
 
 ANALYSES = {0: "static", 1: "buckling", 3: "harmonic", 4: "transient", 7: "substructure", 8: "spectrum"}
-FAMILIES = {"SOLID": (45, 92, 95, 185, 186, 187, 285), "SHELL": (63, 181, 208, 209, 281), "BEAM": (188, 189),
-            "MASS": (21,), "COMBIN": (14,), "LINK": (180,)}
+FAMILIES = {"SOLID": (45, 92, 95, 185, 186, 187, 285), "SHELL": (63, 181, 208, 209, 281), "BEAM": (4, 44, 188, 189),
+            "MASS": (21,), "COMBIN": (14, 39, 40), "LINK": (180,), "MPC": (184,), "PLANE": (182, 183),
+            "SURF": (154, 156), "TARGE": (169, 170), "CONTA": (171, 172, 173, 174, 175, 177), "MESH": (200,)}
 HEXAHEDRA = ("hexahedron", "hexahedron20")  # the cells whose corner stresses are read
 CORNERS = 8  # stresses of a hexahedron are written at its corners
 

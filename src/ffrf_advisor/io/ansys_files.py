@@ -40,7 +40,7 @@ class AnsysRun:
     cell_material: dict[str, np.ndarray]  # meshio cell type -> (ne,) MP material number of each cell
     element_types: dict[str, int]  # e.g. {"SOLID186": 40}
     materials: dict[int, dict[str, float]]  # MP tables (EX, NUXY, DENS, ...) by material number
-    cell_materials: set[int]       # the material numbers the elements use
+    cell_materials: set[int]       # the material numbers the solid elements use (MASS21 and MESH200 have none)
     units: str                     # the /UNITS record as the library names it ("User Defined", "SI", ...)
     eigenvalues: np.ndarray        # (nm,) (2 pi f)^2
     modes: np.ndarray              # (n, 3, nm) UX, UY, UZ
@@ -130,7 +130,7 @@ def _result(lib, rst: str, budget: Budget) -> AnsysRun:
                     cell_material={t: material[k] for t, k in rows.items()},
                     element_types={t: names.count(t) for t in sorted(set(names))},
                     materials={int(k): {p: float(v) for p, v in d.items()} for k, d in r.materials.items()},
-                    cell_materials={int(m) for m in np.asarray(mesh.material_type)},
+                    cell_materials={int(m) for k in rows.values() for m in material[k]},
                     units=str(r._resultheader["units"]),
                     eigenvalues=np.sign(frequencies) * (2 * np.pi * frequencies) ** 2, modes=modes,
                     corner_stress=stress, M=empty, K=empty, constrained=np.zeros(0, bool))

@@ -181,3 +181,24 @@ def test_right_prisms_on_uneven_bases_are_compared_where_pyNastrans_centroid_hol
     assert nastran_props.of_nodal_mass(mass, points).mass == pytest.approx(RHO * BOX.prod(), rel=ROUND)
     note = nastran_props.checked("u.bdf", model, mass, points, True)[0]
     assert all(f"{q} within" in note for q in ("mass", "CG", "inertia")) == (kind == "CPENTA"), note
+
+
+MULTI = BEAM.parent / "modes_elements.op2"
+
+
+@needs_data
+def test_the_solids_of_a_real_msc_model_have_pyNastrans_element_masses():
+    """modes_elements.op2 (MSC): CHEXA, two CPENTA, two CTETRA; each element alone through the reader's map."""
+    from ffrf_advisor.io import nastran_solids
+
+    m = nastran._load(MULTI)
+    run = nastran._modes(MULTI, m)
+    index = {int(g): i for i, g in enumerate(run.grids)}
+    solids = [e for e in m.elements.values() if e.type in nastran_solids.SOLIDS]
+    assert sorted(e.type for e in solids) == ["CHEXA", "CPENTA", "CPENTA", "CTETRA", "CTETRA"]
+    for e in solids:
+        nodes = [index[g] for g in e.nodes if g is not None]
+        cell = nastran_solids.cell_of(MULTI, e, nodes)
+        conn, _ = nastran_solids.oriented(cell, np.array([nastran_solids.to_vtk(cell, nodes)]), run.points)
+        block = nastran_solids.solid_mass(MULTI, run.points, cell, conn, np.array([e.eid]), float(e.Rho()))
+        assert block.sum() == pytest.approx(float(e.Mass()), rel=ROUND), e.eid  # right prisms and tetrahedra

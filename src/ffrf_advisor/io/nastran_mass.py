@@ -90,7 +90,7 @@ def _element_mass(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: 
     for e in m.elements.values():
         if e.type in MASSLESS:
             continue
-        nodes = [index[g] for g in e.node_ids if g is not None]
+        nodes = [index[g] for g in e.nodes if g is not None]  # ids (node_ids: 80 us an element)
         if e.type in nastran_solids.SOLIDS:
             cell = nastran_solids.cell_of(path, e, nodes)
             conns, eids = solids.setdefault((cell, float(e.Rho())), ([], []))
@@ -113,7 +113,7 @@ def _point_masses(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: 
     extra = []
     for c in m.masses.values():
         if c.type != "CONM2":
-            raise BodyFileError(path, "masses", "CONM2 point masses", c.type)
+            raise BodyFileError(path, "masses", f"CONM2 point masses, or {FORWARD}", c.type)
         i = index[c.nid]
         cg, inertia = np.asarray(c.Centroid(), dtype=float), _conm2_inertia(path, c)
         if np.linalg.norm(cg - run.points[i]) <= 1e-12 * max(1.0, np.abs(run.points).max()):

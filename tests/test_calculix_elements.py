@@ -135,7 +135,7 @@ def test_each_solid_element_reads_through_both_routes(solved, kind):
     mass, inertia = _rigid_mass(routes["stored"].parent, _points(mesh))
     for route, frd in routes.items():
         if route == "deck" and kind in ("tetra", "wedge"):  # CalculiX's mass of these is not the exact one
-            with pytest.raises(BodyFileError, match={"tetra": "C3D4", "wedge": "C3D6"}[kind] + ".*integrates"):
+            with pytest.raises(BodyFileError, match={"tetra": "C3D4", "wedge": "C3D6"}[kind] + r" \(CalculiX integr"):
                 read_body(frd)
             continue
         body = read_body(frd, load_fe=True)

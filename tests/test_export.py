@@ -141,3 +141,33 @@ def test_the_exported_script_runs_in_exudyn_as_simulate_does(tmp_path):
              "q": (ex[:, 13:13 + nf], ours[:, 8:8 + nf])}
     for name, (a, b) in pairs.items():
         assert np.abs(a - b).max() <= AGREE * np.abs(b).max(), name
+
+
+def test_an_export_that_fails_midway_leaves_the_old_folder_whole(tmp_path, monkeypatch):
+    """The files go to a temporary sibling folder renamed into place: a failure after body.npz and scene.json
+    were written leaves the old three files (not a new body.npz beside an old scene.json) and no temporary."""
+    from ffrf_advisor.export import exudyn
+    out, _ = _export(tmp_path, "--t-end", "0.01")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def full_disk(*_args):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(exudyn.shutil, "copyfile", full_disk)
+    r = runner.invoke(app, ["export", str(BEAM), "-o", str(out), "--t-end", "0.02", "--force"])
+    assert r.exit_code == 2 and "No space left on device" in r.output and len(r.output.strip().splitlines()) == 1
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["exudyn"]
+
+
+def test_export_replaces_a_folder_of_its_own_files_only(tmp_path):
+    """The folder is replaced whole, so one holding anything else is refused (its files would go), and its own
+    files are replaced only with --force."""
+    out, _ = _export(tmp_path, "--t-end", "0.01")
+    r = runner.invoke(app, ["export", str(BEAM), "-o", str(out), "--t-end", "0.02"])
+    assert r.exit_code == 2 and "use --force" in r.output
+    (out / "notes.txt").write_text("mine")
+    r = runner.invoke(app, ["export", str(BEAM), "-o", str(out), "--t-end", "0.02", "--force"])
+    assert r.exit_code == 2 and "'notes.txt'" in r.output and (out / "notes.txt").read_text() == "mine"
+    (out / "notes.txt").unlink()
+    r = runner.invoke(app, ["export", str(BEAM), "-o", str(out), "--t-end", "0.02", "--force"])
+    assert r.exit_code == 0 and json.loads((out / "scene.json").read_text())["t_end"] == pytest.approx(0.02)

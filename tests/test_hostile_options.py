@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import shutil
 import warnings
 from pathlib import Path
 
@@ -128,7 +130,8 @@ def test_option_lists_of_another_length_than_they_describe_are_one_line(tmp_path
     """A list shorter or longer than the modes (or than three components) is refused in one line, with how
     many it takes, by simulate and export alike (cli._start)."""
     for command in ("simulate", "export"):
-        extra = ["--t-end", "1e-4", "--json"] if command == "simulate" else ["-o", tmp_path / "out", "--speed", "30rad/s"]
+        extra = (["--t-end", "1e-4", "--json"] if command == "simulate"
+                 else ["-o", tmp_path / "out", "--speed", "30rad/s"])
         _one_line_exit_2([command, BEAM, option, text, *extra], *words)
     assert not (tmp_path / "out").exists()
 
@@ -137,5 +140,39 @@ def test_option_lists_of_another_length_than_they_describe_are_one_line(tmp_path
 def test_non_finite_numbers_are_refused_for_every_float_option(value):
     """--f-max inf wrote Infinity into modes --json and nan was ignored: every float option refuses them at
     parsing (cli_params), before any body is read."""
-    _one_line_exit_2(["modes", BEAM, "--speed", "30rad/s", "--f-max", value, "--json"], "--f-max", "not a finite number")
+    _one_line_exit_2(["modes", BEAM, "--speed", "30rad/s", "--f-max", value, "--json"], "--f-max",
+                     "not a finite number")
     _one_line_exit_2(["simulate", BEAM, "--t-end", value], "--t-end", "not a finite number")
+
+
+def test_a_config_path_that_is_not_a_regular_file_is_named_in_one_line(tmp_path, monkeypatch):
+    """A FIFO named pyproject.toml in the working directory was skipped silently (and opening it would block):
+    refused before it is opened, like ffrf-advisor.toml and --config."""
+    os.mkfifo(tmp_path / "pyproject.toml")
+    monkeypatch.chdir(tmp_path)
+    _one_line_exit_2(["analyze", BEAM, "--speed", "30rad/s"], "pyproject.toml", "regular file", "FIFO")
+
+
+@pytest.mark.skipif(not (hasattr(os, "geteuid") and os.geteuid() == 0 and shutil.which("setpriv")),
+                    reason="needs root to run the CLI as another user (root writes in read-only folders)")
+@pytest.mark.parametrize("command", ["convert", "export"])
+def test_an_unwritable_output_folder_is_named_in_one_line(tmp_path, command):
+    """A read-only folder gave "unexpected PermissionError" naming the temporary file: one line naming the folder,
+    before the work. Run as user nobody (setpriv), for whom the folder is read-only."""
+    import subprocess
+    import sys
+    import tempfile
+    folder = Path(tempfile.mkdtemp(prefix="ffrf-ro-"))
+    try:
+        folder.chmod(0o555)
+        target = folder / ("out.ffrf.h5" if command == "convert" else "exudyn")
+        extra = [target] if command == "convert" else ["-o", target, "--speed", "30rad/s"]
+        done = subprocess.run(["setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", sys.executable, "-m",
+                               "ffrf_advisor", command, BEAM, *map(str, extra)], capture_output=True, text=True,
+                              env={**os.environ, "HOME": str(folder)})
+        lines = done.stderr.strip().splitlines()
+        assert done.returncode == 2 and len(lines) == 1, done.stderr
+        assert str(folder) in lines[0] and "may write in" in lines[0] and ".tmp" not in lines[0], lines
+    finally:
+        folder.chmod(0o755)
+        shutil.rmtree(folder)

@@ -67,7 +67,8 @@ def test_gate_forks_at_most_one_worker_per_hand_out_and_processor(monkeypatch, t
     for i in range(bodies):
         paths.append(tmp_path / f"b{i}.ffrf.h5")
         paths[-1].write_bytes(beam.read_bytes())
-    result = CliRunner().invoke(app, ["gate", *map(str, paths), "--speed", "30", "--max-level", "IV", "--jobs", str(jobs)])
+    result = CliRunner().invoke(app, ["gate", *map(str, paths), "--speed", "30", "--max-level", "IV",
+                                      "--jobs", str(jobs)])
     assert result.exit_code == 0, result.output
     expected = min(jobs, -(-bodies // CHUNK), pool.cpus())
     assert made == ([] if expected == 1 else [expected])

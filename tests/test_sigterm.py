@@ -1,6 +1,7 @@
 """SIGTERM at random moments of the writing commands (issue 23, item 13): the run ends with 143 (its handler
-while it runs, the signal's default before that: the shell's 143 either way; or it had finished), the target is the old file or a complete new one, no temporary is left, and no process of the
-run outlives it (pool workers and the reading child die with their parent)."""
+while it runs, the signal's default before that: the shell's 143 either way; or it had finished), the target is
+the old file or a complete new one (export's folder: issue 49), no temporary is left, and no process of the run
+outlives it (pool workers and the reading child die with their parent)."""
 from __future__ import annotations
 
 import os
@@ -128,3 +129,49 @@ def test_sigterm_kills_the_writer_child_before_removing_its_temporary(tmp_path):
         assert proc.wait(timeout=30) == 143
         time.sleep(0.3)
         assert not list(tmp_path.glob(".*.tmp")) and not _group_alive(proc.pid)
+
+
+def _export_state(folder: Path, script: bytes) -> str:
+    """'old' (the three placeholder files), 'new' (the three files of a complete export) or what else it is."""
+    names = sorted(p.name for p in folder.iterdir()) if folder.is_dir() else []
+    if names != ["body.npz", "run_exudyn.py", "scene.json"]:
+        return f"files {names}"
+    data = {n: (folder / n).read_bytes() for n in names}
+    if all(v == b"old" for v in data.values()):
+        return "old"
+    if any(v == b"old" for v in data.values()):
+        return "mixed"
+    import json
+
+    import numpy as np
+    with np.load(folder / "body.npz") as f:
+        complete = ("modes" in f.files and json.loads(data["scene.json"])["t_end"] > 0
+                    and data["run_exudyn.py"] == script)
+    return "new" if complete else "incomplete"
+
+
+@pytest.mark.slow  # RUNS runs of export, each terminated at a random moment
+def test_sigterm_during_export_leaves_the_old_folder_or_the_complete_new_one(tmp_path):
+    """export -o DIR writes a temporary sibling folder renamed into place: a SIGTERM at any moment leaves the
+    old files (placeholders here) or all the new ones, never a new body.npz beside an old scene.json (5 of 6
+    kills did before), and no temporary."""
+    from ffrf_advisor.export import exudyn
+    script = Path(exudyn.__file__).with_name("run_exudyn.py").read_bytes()
+    target = tmp_path / "exudyn"
+    args = ["export", str(SAMPLES / "beam.ffrf.h5"), "-o", str(target), "--t-end", "0.01", "--force"]
+
+    def old() -> None:
+        target.mkdir(exist_ok=True)
+        for name in exudyn.FILES:
+            (target / name).write_bytes(b"old")
+    old()
+    code, took, _ = _run(args, None)
+    assert code == 0 and _export_state(target, script) == "new"
+    rng, seen = random.Random("sigterm-export"), set()
+    for i in range(RUNS):
+        old()
+        code, _, signalled = _run(args, rng.uniform(0.05, took))
+        state = _export_state(target, script)
+        seen.add(state)
+        assert state in ("old", "new") and code in (143, -signal.SIGTERM, 0), (i, code, state, signalled)
+        assert not list(tmp_path.glob(".*.tmp*")), (i, sorted(p.name for p in tmp_path.iterdir()))

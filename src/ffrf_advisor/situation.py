@@ -174,7 +174,7 @@ def load_config(path: Path | None = None, cwd: Path = Path(".")) -> tuple[dict, 
     if path is None:
         if (cwd / "ffrf-advisor.toml").exists():  # a FIFO or directory there is refused, not ignored
             path = cwd / "ffrf-advisor.toml"
-        elif (cwd / "pyproject.toml").is_file():
+        elif (cwd / "pyproject.toml").exists():  # a FIFO, device or directory by that name is refused too
             table = _toml(cwd / "pyproject.toml", TOOL_TABLE).get("tool", {}).get("ffrf-advisor")
             if table is None:
                 return {}, None

@@ -14,7 +14,7 @@ import numpy as np
 from ..body import FlexibleBody
 from ..errors import FFRFError
 from ..fe.assembly import full_mass
-from ..io.atomic import atomic_path, check_target
+from ..io.atomic import atomic_directory
 from ..sim.equations import split
 
 DATA, SCENE, SCRIPT = "body.npz", "scene.json", "run_exudyn.py"
@@ -70,19 +70,13 @@ def arrays(body: FlexibleBody, source: str) -> dict[str, np.ndarray]:
 
 
 def write(body: FlexibleBody, scene: Scene, directory: Path, source: str, force: bool = False) -> list[Path]:
-    """``body.npz``, ``scene.json`` and ``run_exudyn.py`` in ``directory`` (created), each written atomically;
-    refuses to replace any of them without ``force``."""
-    if directory.exists() and not directory.is_dir():
-        raise FFRFError(f"{directory}: expected a directory to write {', '.join(FILES)} into, got a file")
+    """``body.npz``, ``scene.json`` and ``run_exudyn.py`` written into a temporary folder that then takes
+    ``directory``'s place whole (io.atomic.atomic_directory: the old files or the new ones, never a mix);
+    refuses to replace them without ``force``, and a folder holding anything else."""
     data = arrays(body, source)
-    directory.mkdir(parents=True, exist_ok=True)
-    paths = [directory / name for name in FILES]
-    for path in paths:
-        check_target(path, force)
-    with atomic_path(paths[0], overwrite=force) as tmp, open(tmp, "wb") as fh:
-        np.savez(fh, **data)
-    with atomic_path(paths[1], overwrite=force) as tmp:
-        tmp.write_text(json.dumps({"units": str(body.units), **asdict(scene)}, indent=1) + "\n")
-    with atomic_path(paths[2], overwrite=force) as tmp:
-        shutil.copyfile(Path(__file__).with_name(SCRIPT), tmp)
-    return paths
+    with atomic_directory(directory, FILES, force) as tmp:
+        with open(tmp / DATA, "wb") as fh:
+            np.savez(fh, **data)
+        (tmp / SCENE).write_text(json.dumps({"units": str(body.units), **asdict(scene)}, indent=1) + "\n")
+        shutil.copyfile(Path(__file__).with_name(SCRIPT), tmp / SCRIPT)
+    return [directory / name for name in FILES]

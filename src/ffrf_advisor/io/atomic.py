@@ -1,4 +1,4 @@
-"""Atomic output: write to a temporary file beside the target, fsync, then rename.
+"""Atomic output: write to a temporary file (or folder) beside the target, fsync, then rename.
 
 The temporary file ``.NAME.PID.*.tmp`` is removed on any failure and on
 SIGTERM (in the main thread: the process then ends at once with 143, after
@@ -9,8 +9,11 @@ once its process is gone.
 """
 from __future__ import annotations
 
+import ctypes
+import errno
 import os
 import secrets
+import shutil
 import signal
 import threading
 from contextlib import contextmanager
@@ -73,6 +76,14 @@ def check_target(target: str | os.PathLike, overwrite: bool = False) -> None:
         raise FFRFError(f"{target}: exists; refusing to overwrite (use --force)")
     if not target.parent.is_dir():
         raise FFRFError(f"{target}: directory {target.parent} does not exist")
+    writable_folder(target)
+
+
+def writable_folder(target: Path) -> None:
+    """The folder of ``target`` one this user may write in (checked before the work, not after it)."""
+    if not os.access(target.parent, os.W_OK | os.X_OK):
+        raise FFRFError(f"{target}: write: expected a folder this user may write in, got {target.parent} "
+                        "without write permission")
 
 
 @contextmanager
@@ -97,17 +108,99 @@ def atomic_path(target: str | os.PathLike, overwrite: bool = False) -> Iterator[
         _TEMPORARIES.discard(tmp)
 
 
-def _new_temporary(target: Path) -> Path:
+@contextmanager
+def atomic_directory(target: str | os.PathLike, names: tuple[str, ...], overwrite: bool = False) -> Iterator[Path]:
+    """Yield a new temporary folder beside ``target``; on success it takes ``target``'s place whole (``_swap``),
+    on failure or SIGTERM it is removed: ``target`` is the old folder or the complete new one, never a mix. An
+    existing ``target`` may hold only ``names`` (replaced only with ``overwrite``): anything else would leave
+    with the old folder."""
+    target = Path(target)
+    _check_folder(target, names, overwrite)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    writable_folder(target)
+    _sweep_stale(target)
+    tmp = _new_temporary(target, folder=True)
+    try:
+        with terminate_cleanly():
+            try:
+                yield tmp
+                for path in tmp.iterdir():
+                    _fsync(path)
+                _swap(tmp, target)
+                _fsync(target.parent)
+            except OSError as e:  # a full disk, a quota, the file-size limit
+                raise FFRFError(f"{target}: write: expected to write the folder, got {e.strerror or e}") from None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)  # after the swap: the old folder
+        _TEMPORARIES.discard(tmp)
+
+
+def _check_folder(target: Path, names: tuple[str, ...], overwrite: bool) -> None:
+    """``target`` a folder to replace whole: absent, or a directory of ``names`` only (present: ``overwrite``)."""
+    not_an_input(target)
+    if target.is_symlink() or (target.exists() and not target.is_dir()):
+        raise FFRFError(f"{target}: expected a directory to write {', '.join(names)} into, got a "
+                        f"{'symbolic link' if target.is_symlink() else 'file'}")
+    present = sorted(p.name for p in target.iterdir()) if target.exists() else []
+    if other := [n for n in present if n not in names]:
+        raise FFRFError(f"{target}: expected a new folder or one holding only {', '.join(names)} (it is replaced "
+                        f"whole), got {other[0]!r} in it too")
+    if present and not overwrite:
+        raise FFRFError(f"{target}: holds {', '.join(present)}; refusing to replace them (use --force)")
+
+
+RENAME_EXCHANGE, AT_FDCWD = 2, -100  # linux/fs.h, fcntl.h
+
+
+def _swap(new: Path, target: Path) -> None:
+    """``new`` becomes ``target`` and the old ``target`` (if any) ``new``: one atomic exchange (Linux
+    renameat2), else two renames with SIGTERM held between them (its handler then finds ``target`` complete)."""
+    if not target.exists():
+        os.rename(new, target)
+        return
+    if _exchange(new, target):
+        return
+    old = new.with_name(new.name + ".old")
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGTERM})
+    try:
+        os.rename(target, old)
+        os.rename(new, target)
+        os.rename(old, new)
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """renameat2(a, b, RENAME_EXCHANGE); False where the C library or the file system lacks it."""
+    try:
+        renameat2 = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError):
+        return False
+    if renameat2(AT_FDCWD, os.fsencode(a), AT_FDCWD, os.fsencode(b), RENAME_EXCHANGE) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP):
+        return False
+    raise OSError(code, os.strerror(code), str(b))
+
+
+def _new_temporary(target: Path, folder: bool = False) -> Path:
     """Create ``.NAME.PID.RANDOM.tmp`` beside ``target``, noted as this process's before it exists: a SIGTERM
     handled at any moment (Python runs its handler between any two bytecodes) removes it or finds none."""
     while True:
         tmp = target.parent / f".{target.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
         _TEMPORARIES.add(tmp)
         try:
-            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+            if folder:
+                os.mkdir(tmp, 0o777)  # under the umask
+            else:
+                os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
             return tmp
         except BaseException as e:
             _TEMPORARIES.discard(tmp)
+            if isinstance(e, OSError) and not isinstance(e, FileExistsError):  # named by the folder, not the tmp
+                raise FFRFError(f"{target}: write: expected a folder this user may write in, got "
+                                f"{e.strerror or e} in {target.parent}") from None
             if not isinstance(e, FileExistsError):
                 raise
 
@@ -117,7 +210,7 @@ def _sweep_stale(target: Path) -> None:
     for old in target.parent.glob(f".{target.name}.*.tmp"):
         pid = old.name[len(target.name) + 2:].split(".", 1)[0]
         if pid.isdigit() and not _alive(int(pid)):
-            old.unlink(missing_ok=True)
+            _remove(old)
 
 
 def _alive(pid: int) -> bool:
@@ -193,11 +286,19 @@ def _on_terminate(signum, frame) -> None:  # noqa: ARG001
     for pid in list(_CHILDREN):
         kill_and_reap(pid)
     for tmp in list(_TEMPORARIES):
+        _remove(tmp)
+    os._exit(128 + signum)
+
+
+def _remove(tmp: Path) -> None:
+    """A temporary file or folder, if it is there."""
+    if tmp.is_dir() and not tmp.is_symlink():
+        shutil.rmtree(tmp, ignore_errors=True)
+    else:
         try:
             os.unlink(tmp)
         except OSError:
             pass
-    os._exit(128 + signum)
 
 
 def _mode(target: Path) -> int:

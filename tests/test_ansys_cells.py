@@ -359,3 +359,13 @@ def test_elements_that_do_not_give_the_full_s_mass_are_named_in_a_warning(tet_ru
     assert body.mass == pytest.approx(7850.0 * moments[0], rel=ROUND_OFF)
     assert _agreement(body) == pytest.approx(1, abs=0.01) and "(warning: the elements are not the .full's model)" \
         in body.provenance.notes[5]
+
+
+def test_an_inverted_element_is_refused_in_one_line(tet_run):
+    """Before the elements' K or G is assembled (fe.assembly would raise a ValueError)."""
+    run, _ = tet_run
+    conn = run.cells["tetra"].copy()
+    conn[7, [1, 2]] = conn[7, [2, 1]]
+    with pytest.raises(BodyFileError, match=r"tet\.rst: elements: expected elements with a positive Jacobian "
+                       r"\(MAPDL's node order\), got tetra cell 7 inverted"):
+        ansys.body_of("tet.rst", replace(run, cells={"tetra": conn}))

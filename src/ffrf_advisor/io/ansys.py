@@ -63,6 +63,7 @@ def body_of(path, run: AnsysRun, units: str | None = None) -> FlexibleBody:
     choice = choose(path, run.units, materials, units)
     run = _scaled(run, choice)
     Ms, mesh = scalar_mass(run), Mesh(run.points, run.cells)
+    mass_note = mass_agreement(run, Ms, choice.length, choice.mass)  # first: it refuses inverted elements
     material, material_note = material_of(run, choice.length, choice.mass)
     K, stiffness_note = free_stiffness(run, mesh, material)
     lam, Phi, stress, modes_note = _modes(run, Ms, K, stiffness_note, choice)
@@ -70,7 +71,7 @@ def body_of(path, run: AnsysRun, units: str | None = None) -> FlexibleBody:
     notes = (f"MAPDL {os.path.basename(str(path))} with {os.path.basename(run.full)}: {len(run.eigenvalues)} modes, "
              f"{n} nodes, {', '.join(f'{v} {t}' for t, v in run.element_types.items())}; cells "
              f"{', '.join(f'{len(c)} {t}' for t, c in mesh.cells.items()) or 'none'}", choice.note, material_note,
-             stiffness_note, modes_note, mass_agreement(run, Ms, choice.length, choice.mass),
+             stiffness_note, modes_note, mass_note,
              "modal von Mises stress from the corner stresses, averaged at the nodes" if stress is not None else
              "no modal stresses (corner stresses are read for hexahedra only, with ENS in the .rst)")
     kept = None if K is None else material  # the static response needs the K the modes belong to

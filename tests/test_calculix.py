@@ -301,5 +301,6 @@ def test_hexahedra_whose_mass_calculix_makes_otherwise_are_refused_without_the_m
     write_deck(mesh, STEEL, NF, tmp_path / "r.inp")
     (tmp_path / "r.inp").write_text((tmp_path / "r.inp").read_text().replace("TYPE=C3D8,", f"TYPE={name},"))
     subprocess.run(["ccx", "r"], cwd=tmp_path, capture_output=True, timeout=300)
-    with pytest.raises(BodyFileError, match=rf"r\.frd: 3C: expected .*SOLVER=MATRIXSTORAGE.*got {name} \(CalculiX {why}"):
+    expected = rf"r\.frd: 3C: expected .*SOLVER=MATRIXSTORAGE.*got {name} \(CalculiX {why}"
+    with pytest.raises(BodyFileError, match=expected):
         read_body(tmp_path / "r.frd")

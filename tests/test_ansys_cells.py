@@ -263,13 +263,14 @@ def _run(name: str, X: np.ndarray, nodes: np.ndarray, elem, routines: np.ndarray
     cells, _ = cells_of(name, elem, routines, nodes)
     used = np.unique(np.concatenate([c.ravel() for c in cells.values()]))
     X, nodes = X[used], nodes[used]
-    cells, _ = cells_of(name, elem, routines, nodes)
+    cells, rows = cells_of(name, elem, routines, nodes)
     steel = Material("steel", 2.1e11, 0.3, 7850.0)
     M, K = full_mass(mass_matrix(Mesh(X, cells), steel.rho)), stiffness_matrix(Mesh(X, cells), steel)
     lam, V = spla.eigsh(sp.csc_array(K), k=k, M=sp.csc_array(M), sigma=-1.0)
     names = [f"SOLID{int(t)}" for t in routines]
     run = AnsysRun(source=name, full=name.replace(".rst", ".full"), nodes=nodes, points=X, cells=cells,
                    cell_material={t: np.ones(len(c), np.int64) for t, c in cells.items()},
+                   cell_numbers={t: np.array([elem[k][8] for k in r]) for t, r in rows.items()},
                    element_types={t: names.count(t) for t in set(names)},
                    materials={1: {"EX": 2.1e11, "NUXY": 0.3, "DENS": 7850.0}}, cell_materials={1},
                    units="User Defined", eigenvalues=lam, modes=V.reshape(len(X), 3, -1), corner_stress=None,
@@ -367,5 +368,5 @@ def test_an_inverted_element_is_refused_in_one_line(tet_run):
     conn = run.cells["tetra"].copy()
     conn[7, [1, 2]] = conn[7, [2, 1]]
     with pytest.raises(BodyFileError, match=r"tet\.rst: elements: expected elements with a positive Jacobian "
-                       r"\(MAPDL's node order\), got tetra cell 7 inverted"):
+                       r"\(MAPDL's node order\), got element 8 \(tetra\) inverted"):
         ansys.body_of("tet.rst", replace(run, cells={"tetra": conn}))

@@ -80,7 +80,8 @@ def _element_moments(run: AnsysRun, dens: dict[int, float]) -> tuple[float, np.n
             detJ = np.linalg.det(np.einsum("qna,enb->eqab", dN, coords, optimize=True))
             if np.any(detJ <= 0):
                 raise BodyFileError(run.source, "elements", "elements with a positive Jacobian (MAPDL's node order)",
-                                    f"{name} cell {start + int(np.argwhere(detJ <= 0)[0, 0])} inverted")
+                                    f"element {run.cell_numbers[name][start + np.argwhere(detJ <= 0)[0, 0]]} "
+                                    f"({name}) inverted")
             dV = detJ * w * rho[start:start + CHUNK, None]
             x = np.einsum("qn,enk->eqk", N, coords)
             m, first = m + dV.sum(), first + np.einsum("eq,eqk->k", dV, x)

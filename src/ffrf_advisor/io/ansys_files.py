@@ -38,6 +38,7 @@ class AnsysRun:
     points: np.ndarray             # (n, 3)
     cells: dict[str, np.ndarray]   # meshio cell type -> (ne, nn) node indices
     cell_material: dict[str, np.ndarray]  # meshio cell type -> (ne,) MP material number of each cell
+    cell_numbers: dict[str, np.ndarray]   # meshio cell type -> (ne,) MAPDL element number of each cell
     element_types: dict[str, int]  # e.g. {"SOLID186": 40}
     materials: dict[int, dict[str, float]]  # MP tables (EX, NUXY, DENS, ...) by material number
     cell_materials: set[int]       # the material numbers the solid elements use (MASS21 and MESH200 have none)
@@ -128,6 +129,7 @@ def _result(lib, rst: str, budget: Budget) -> AnsysRun:
     empty = sp.csr_array((0, 0))
     return AnsysRun(source=rst, full="", nodes=nodes, points=points, cells=cells,
                     cell_material={t: material[k] for t, k in rows.items()},
+                    cell_numbers={t: np.asarray(mesh.enum, np.int64)[k] for t, k in rows.items()},
                     element_types={t: names.count(t) for t in sorted(set(names))},
                     materials={int(k): {p: float(v) for p, v in d.items()} for k, d in r.materials.items()},
                     cell_materials={int(m) for k in rows.values() for m in material[k]},

@@ -20,6 +20,7 @@ import numpy as np
 from ..errors import BodyFileError, FFRFError
 from ..fe.elements import element_type
 from .nastran_mass import LINES, SHELLS, NodalMass, wtmass
+from .nastran_solids import NASTRAN
 from .pynastran import quietly
 
 PROPS_TOL = 1e-6  # relative: OP2 grids are float32 (6e-8), so right prisms are right to ~1e-7 of the body
@@ -171,15 +172,20 @@ def _approximations(m, mass: NodalMass, points: np.ndarray) -> list[tuple[tuple[
         signed = mirrored if cell.startswith("tetra") else False  # pyNastran's CTETRA volume is signed
         inexact = signed | ~_straight(cell, points[conn], tol) | ~_right_prism(cell, points[conn], tol)
         if inexact.any():
-            out.append((QUANTITIES, f"{int(inexact.sum())} {cell} cells (not a tetrahedron or right prism with "
+            out.append((QUANTITIES, f"{int(inexact.sum())} {_named(cell, conn)} (not a tetrahedron or right prism with "
                                     "straight edges, or of the other handedness)"))
         elif cell.startswith("pyramid"):
-            out.append((QUANTITIES[1:], f"{len(conn)} {cell} cells (centroid at half height)"))
+            out.append((QUANTITIES[1:], f"{len(conn)} {_named(cell, conn)} (centroid at half height)"))
     conm2 = [c for c in m.masses.values() if c.type == "CONM2"]
     odd = sum(1 for c in conm2 if c.Cid() not in (0, -1) or any(float(c.I[k]) for k in (1, 3, 4)))
     if odd:
         out.append((("inertia",), f"{odd} CONM2 (products of inertia, or inertia in a CID frame)"))
     return out
+
+
+def _named(cell: str, conn: np.ndarray) -> str:
+    """Nastran's name of the cells: CTETRA with 10 grids."""
+    return f"{NASTRAN[cell]} with {conn.shape[1]} grids"
 
 
 def _straight(cell: str, X: np.ndarray, tol: float) -> np.ndarray:

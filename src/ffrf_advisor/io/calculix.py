@@ -22,6 +22,7 @@ import numpy as np
 from ..body import FlexibleBody, Provenance
 from ..errors import BodyFileError
 from ..fe.assembly import mass_matrix
+from ..fe.code_rules import CALCULIX, rules_of
 from ..fe.elements import element_type
 from ..fe.mesh import Mesh
 from ..fe.stress import von_mises
@@ -31,11 +32,10 @@ from .calculix_frd import ASCII_DIGITS, NAMES, SOLIDS, Frd
 from .calculix_mass import (carried_masses, check_modal_masses, check_total_mass, refuse_rotary_inertia,
                             stored_matrices, with_point_masses)
 
-# CalculiX integrates these elements' mass at too few points for N_a N_b: its modes are those of another mass
-# (their modal masses with the exact one off by 7.7 % (C3D4), 4.4 % (C3D6) on the test bracket, 35 % (C3D8R) on a bar)
-# and gives C3D8I's incompatible modes mass of their own (modal masses 10 % off on the bar)
-UNDER_INTEGRATED = {"C3D4": "integrates its mass at one point", "C3D6": "integrates its mass at two points",
-                    "C3D8R": "integrates its mass at one point", "C3D8I": "gives its incompatible modes mass"}
+# CalculiX's C3D8R mass (one point, hourglass control) and C3D8I's incompatible modes (mass of their own) have no
+# rule in fe.code_rules: its modes are those of another mass (modal masses 35 % and 10 % off on a bar)
+UNCARRIED = {"C3D8R": "integrates its mass at one point", "C3D8I": "gives its incompatible modes mass"}
+EXPANDED = {"S8R": "C3D20R", "S8": "C3D20", "B32R": "C3D20R", "B32": "C3D20"}  # CalculiX's 3D form of each
 RIGID_TOL = 1e-6  # |lambda| / largest |lambda| below which a mode is rigid
 N_RIGID = 6
 
@@ -118,21 +118,25 @@ def _solid_cells(frd: Frd, deck: Deck | None, index: dict) -> dict[str, np.ndarr
 
 
 def _assembled(frd: Frd, deck: Deck | None, mesh: Mesh, why: str | None, stem: Path):
-    """Consistent mass from the mesh and the deck's *DENSITY; an element the tool cannot integrate is refused
-    by its CalculiX name, with the way forward."""
+    """Consistent mass from the mesh and the deck's *DENSITY with CalculiX's own integration rule of each block
+    (fe.code_rules: the mass its modes are normalised with), exact where the block has none; an element the tool
+    cannot integrate as CalculiX does is refused by its CalculiX name, with the way forward."""
+    rules = {}
     for cell_type in mesh.cells:
-        coarse = [n for n in _names(frd, deck, cell_type).split(", ") if n in UNDER_INTEGRATED]
+        names = {EXPANDED.get(n, n) for n in _names(frd, deck, cell_type).split(", ")}
+        coarse = sorted(names & set(UNCARRIED))
         if coarse:
             frd.fail("3C", "elements whose mass CalculiX integrates as the tool does, or CalculiX's stored matrices "
                      "(*FREQUENCY, SOLVER=MATRIXSTORAGE, .mas/.dof beside the .frd)" + (f"; {why}" if why else ""),
-                     f"{coarse[0]} (CalculiX {UNDER_INTEGRATED[coarse[0]]})")
+                     f"{coarse[0]} (CalculiX {UNCARRIED[coarse[0]]})")
         try:
             element_type(cell_type)
         except ValueError:
-            frd.fail("3C", "elements whose mass the tool integrates (hexahedra), or CalculiX's stored matrices "
-                     f"(*FREQUENCY, SOLVER=MATRIXSTORAGE, .mas/.dof beside the .frd)"
-                     + (f"; {why}" if why else ""), f"{_names(frd, deck, cell_type)} ({cell_type})")
-    return mass_matrix(mesh, deck_density(deck, frd.path, stem))
+            frd.fail("3C", "elements whose mass the tool integrates, or CalculiX's stored matrices (*FREQUENCY, "
+                     "SOLVER=MATRIXSTORAGE, .mas/.dof beside the .frd)" + (f"; {why}" if why else ""),
+                     f"{_names(frd, deck, cell_type)} ({cell_type})")
+        rules.update(rules_of(CALCULIX, {cell_type: names.pop()}) if len(names) == 1 else {})
+    return mass_matrix(mesh, deck_density(deck, frd.path, stem), rules=rules)
 
 
 def _element_nodes(frd: Frd):
@@ -171,8 +175,8 @@ def _mass(frd, deck, mesh, Phi, stress, index, stem):
         files = ".mas/.dof/.sti" if K is not None else ".mas/.dof"
         return Ms, K, mesh, Phi, stress, [f"{stored}: CalculiX matrix storage ({files})"]
     Ms = _assembled(frd, deck, mesh, why, stem)
-    notes = ["mass: consistent, assembled from the mesh and *DENSITY of the deck" + (f" (not the .mas: {why})"
-                                                                                   if why else "")]
+    notes = ["mass: consistent, assembled from the mesh and *DENSITY of the deck with CalculiX's rules"
+             + (f" (not the .mas: {why})" if why else "")]
     if deck is None or not deck.masses:
         return Ms, None, mesh, Phi, stress, notes
     masses, points, motion = carried_masses(deck, mesh.points, Phi, index, frd.digits, _element_nodes(frd))

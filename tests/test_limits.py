@@ -17,7 +17,7 @@ import pytest
 from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
-from ffrf_advisor.errors import BodyFileError
+from ffrf_advisor.errors import BodyFileError, FFRFError
 from ffrf_advisor.io import ffrf_h5, guard, h5_checksums, limits
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -138,18 +138,60 @@ def test_xdmf_heavy_data_outside_the_folder_is_refused(tmp_path):
 
 
 # ---------------------------------------------------------------- the guarded child
-def test_the_guard_words_a_hang_a_crash_and_a_memory_overrun_by_what_happened(tmp_path, monkeypatch):
+def _spin() -> None:
+    while True:
+        pass
+
+
+def _work(declared: int, cpu_seconds: float) -> str:
+    """Declare ``declared`` bytes (as a reader's memory budget does), then compute for ``cpu_seconds`` of
+    processor time (counted by the process's own clock of work, not the wall)."""
+    limits.Budget("x").take("data", declared, copies=1)
+    while time.process_time() < cpu_seconds:
+        pass
+    return "done"
+
+
+def test_the_guard_words_a_loop_a_crash_and_a_memory_overrun_by_what_happened(tmp_path, monkeypatch):
     path = tmp_path / "x.h5"
     path.write_bytes(b"0" * 100)
     monkeypatch.setattr(guard, "BASE_SECONDS", 1.0)
-    with pytest.raises(BodyFileError, match=r"did not finish within 1 s \(a valid file of 100 B reads in seconds"):
-        guard.run(path, "lib", time.sleep, 30)
+    with pytest.raises(BodyFileError, match=r"lib used up its processor time reading it \(1 s plus 1 s per 2 MiB "
+                       r".*raise FFRF_ADVISOR_READ_SECONDS \(now 1 s\)"):
+        guard.run(path, "lib", _spin)
     with pytest.raises(BodyFileError, match=r"lib crashed reading it \(signal 11, SIGSEGV\)"):
         guard.run(path, "lib", _segfault)
     monkeypatch.setattr(limits, "_set", 64 * 2**20)
     with pytest.raises(MemoryError, match="memory limit of 64 MiB"):
         guard.run(path, "lib", np.ones, 2**30)
     assert guard.run(path, "lib", np.arange, 3).tolist() == [0, 1, 2]  # the result travels back
+
+
+def test_a_reading_child_that_waits_is_not_taken_for_a_loop(tmp_path, monkeypatch):
+    """Issue 49, part 6: a valid body with 458 MiB of modes in a 6 MiB file was refused as damaged at load 16.
+    The child's bound is processor time: waiting (as on a loaded machine, which gives it no processor) past
+    the base costs it nothing. A bad FFRF_ADVISOR_READ_SECONDS is the tool's one line."""
+    path = tmp_path / "x.h5"
+    path.write_bytes(b"0" * 100)
+    monkeypatch.setattr(guard, "BASE_SECONDS", 1.0)
+    assert guard.run(path, "lib", time.sleep, 1.5) is None
+    monkeypatch.setenv(guard.SECONDS_ENV, "inf")
+    with pytest.raises(FFRFError, match="FFRF_ADVISOR_READ_SECONDS: expected a positive number"):
+        guard.run(path, "lib", _work, 0, 0.0)
+
+
+@pytest.mark.slow  # 4 s of processor time, longer on a loaded machine
+def test_the_reading_child_s_processor_time_grows_with_the_sizes_it_declares(tmp_path, monkeypatch):
+    """With a base of 1 s, 2 MiB declared (an HDF5 file's uncompressed data, through the memory budget) allow
+    1.5 s of work (1 s per 2 MiB), which the base alone stops, and so does the raise the message names."""
+    path = tmp_path / "x.h5"
+    path.write_bytes(b"0" * 100)
+    monkeypatch.setattr(guard, "BASE_SECONDS", 1.0)
+    assert guard.run(path, "lib", _work, 2 * 2**20, 1.5) == "done"
+    with pytest.raises(BodyFileError, match="used up its processor time"):
+        guard.run(path, "lib", _work, 0, 1.5)
+    monkeypatch.setenv(guard.SECONDS_ENV, "2")
+    assert guard.run(path, "lib", _work, 0, 1.5) == "done"
 
 
 def _segfault():

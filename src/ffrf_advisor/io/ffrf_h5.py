@@ -21,7 +21,7 @@ from .atomic import atomic_path
 from . import guard
 from . import h5_checksums
 from .h5_reader import CHILD_COPIES, Reader as _Reader
-from .limits import check_hdf5_references
+from .limits import check_hdf5_references, declare_work
 
 h5py = guard.lazy_module("h5py")  # loaded at first use: in the children, in the tool only meanwhile (guard)
 
@@ -425,6 +425,7 @@ def _streamed(r: _Reader, nf: int) -> tuple[ShapeIntegrals, NodalSummary]:
             Phi, rows = r.array("modes/Phi", (n, 3, nf)), block_rows(nf)
             phi_rows = lambda a, b: Phi[a:b]  # noqa: E731
         else:
+            declare_work(8.0 * ds.size)  # read chunk by chunk, never charged whole to the memory budget
             rows = _stream_rows(r, ds, nf)
             phi_rows = _checked_rows(r, "modes/Phi", _chunked(r, ds, rows))
     result = nodal_pass(mesh.points, lambda a, b: Ms[a:b], phi_rows, nf,

@@ -8,7 +8,11 @@ file is read once. The parent unpickles it with an allow-list (``_Unpickler``):
 only the classes of the body model and the arrays, matrices and exceptions
 they are made of, so a child subverted by a hostile file cannot make the
 parent run anything. The child is bounded on its own: it dies with its
-parent (PR_SET_PDEATHSIG), by an alarm at the deadline, and its address
+parent (PR_SET_PDEATHSIG), past its processor time (RLIMIT_CPU: the work,
+not the clock, so a child slow because the machine is loaded is never taken
+for a loop; ``BASE_SECONDS`` plus 1 s per 2 MiB of the file and of every
+size the reading declares before it reads it, ``limits.declare_work``: an
+HDF5 file's uncompressed datasets), and its address
 space is limited to what it had plus the memory limit (``limits``). The
 parent kills and reaps it on every path out (error, Ctrl-C, SIGTERM).
 The file libraries (h5py, the HDF5 library) are loaded where they are
@@ -25,6 +29,7 @@ import faulthandler
 import importlib
 import importlib.util
 import io
+import math
 import os
 import pickle
 import resource
@@ -38,37 +43,52 @@ from contextlib import contextmanager
 from .. import collector
 from ..errors import BodyFileError, FFRFError
 from .atomic import WAKE_S, forked_child, kill_and_reap
+from . import limits
 from .limits import ENV, human, max_bytes
 
-BASE_SECONDS = 30.0  # a valid file reads in well under this ...
-SECONDS_PER_BYTE = 1 / (2 * 2**20)  # ... plus 1 s per 2 MiB (meshio parses text at tens of MiB/s)
+BASE_SECONDS = 30.0  # processor seconds: a valid file reads in well under this ...
+SECONDS_PER_BYTE = 1 / (2 * 2**20)  # ... plus 1 s per 2 MiB read or declared (meshio parses text at tens of MiB/s)
+SECONDS_ENV = "FFRF_ADVISOR_READ_SECONDS"  # raises BASE_SECONDS
 SLACK = 512 * 2**20  # address space for pickling the result and the libraries' own buffers
 FORK = hasattr(os, "fork")  # tests that spy on the parser in-process set this False
 PR_SET_PDEATHSIG = 1
 
 
-def deadline_seconds(path, extra_bytes: int = 0) -> float:
-    return BASE_SECONDS + (os.path.getsize(path) + extra_bytes) * SECONDS_PER_BYTE
+def base_seconds() -> float:
+    """BASE_SECONDS, or the processor seconds of SECONDS_ENV (one line when it is not a positive number)."""
+    text = os.environ.get(SECONDS_ENV)
+    try:
+        value = BASE_SECONDS if text is None else float(text)
+    except ValueError:
+        value = math.nan
+    if not 0 < value < math.inf:
+        raise FFRFError(f"{SECONDS_ENV}: expected a positive number of processor seconds, got {text!r}")
+    return value
+
+
+def cpu_seconds(path, extra_bytes: int = 0) -> float:
+    """The reading child's processor time before it declares anything: the base plus the files' sizes."""
+    return base_seconds() + (os.path.getsize(path) + extra_bytes) * SECONDS_PER_BYTE
 
 
 def run(path, what: str, fn, *args, extra_bytes: int = 0):
     """``fn(*args)`` parsed in a child; its result, or its exception re-raised here.
 
     ``what`` names the library for the messages ("the HDF5 library", "meshio"); ``extra_bytes``, the size
-    of other files the child reads, extends its deadline.
+    of other files the child reads, extends its processor time.
     """
     if not FORK:
         collector.resume()  # the tool's start-up is over (ffrf_advisor.collector)
         return fn(*args)
-    seconds, limit = deadline_seconds(path, extra_bytes), max_bytes()  # a bad limit is the parent's one-line error
-    try:
-        data, status = _forked(lambda fd: _child(fd, seconds, limit, fn, args), time.monotonic() + seconds,
+    seconds, limit = cpu_seconds(path, extra_bytes), max_bytes()  # a bad limit is the parent's one-line error
+    try:  # no deadline: the child's processor time bounds it, and it dies with the tool (Ctrl-C, SIGTERM)
+        data, status = _forked(lambda fd: _child(fd, seconds, limit, fn, args), math.inf,
                                lambda fd, deadline: _imported_then_received(fd, deadline, limit + SLACK))
     except _Oversize as e:
         raise BodyFileError(path, "file", f"a body that fits the memory limit of {human(limit)} (--max-memory or "
                             f"{ENV})", f"{human(e.args[0])} sent back by the reading child") from None
     if not data:
-        raise BodyFileError(path, "file", f"a file {what} can read", f"{what} {_failure(path, seconds, status)}")
+        raise BodyFileError(path, "file", f"a file {what} can read", f"{what} {_failure(status)}")
     header, buffers = data
     try:
         ok, value = _Unpickler(io.BytesIO(header), buffers=buffers).load()
@@ -334,13 +354,26 @@ def _plain_child() -> None:
 
 
 def _bound_self(seconds: float, limit: int) -> None:
-    """Die with the parent, at the deadline, and before allocating more than the memory limit."""
+    """Die with the parent, past ``seconds`` of processor time (extended by each size the reading declares,
+    ``limits.declare_work``) and before allocating more than the memory limit; no core file."""
     _plain_child()
-    signal.alarm(int(seconds) + 2)
+    resource.setrlimit(resource.RLIMIT_CORE, (0, resource.getrlimit(resource.RLIMIT_CORE)[1]))
+    _cpu_limit(seconds)
+    limits.on_declared_work(lambda nbytes: _cpu_limit(nbytes * SECONDS_PER_BYTE, more=True))
     size = _address_space()
     if size:
         soft, hard = size + limit + SLACK, resource.getrlimit(resource.RLIMIT_AS)[1]
         resource.setrlimit(resource.RLIMIT_AS, (soft if hard == resource.RLIM_INFINITY else min(soft, hard), hard))
+
+
+_GRANTED = [0.0]  # the reading child's processor seconds so far (the limit takes whole seconds)
+
+
+def _cpu_limit(seconds: float, more: bool = False) -> None:
+    """The soft limit of processor time at ``seconds`` (``more``: that many more); SIGXCPU past it."""
+    _GRANTED[0] = seconds + (_GRANTED[0] if more else 0.0)
+    total, hard = max(1, round(_GRANTED[0])), resource.getrlimit(resource.RLIMIT_CPU)[1]
+    resource.setrlimit(resource.RLIMIT_CPU, (total if hard == resource.RLIM_INFINITY else min(total, hard), hard))
 
 
 def _address_space() -> int:
@@ -372,12 +405,13 @@ def _collect(fd: int, deadline: float) -> bytes | None:
         chunks.append(chunk)
 
 
-def _failure(path, seconds: float, status: int | None) -> str:
+def _failure(status: int | None) -> str:
     """What happened to a child that sent no result, in words."""
-    if status is None or (os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGALRM):
-        return (f"did not finish within {seconds:.0f} s (a valid file of {human(os.path.getsize(path))} reads in "
-                "seconds; damaged metadata can make it loop)")
-    return _crash(status, "reading it")
+    if status is not None and os.WIFSIGNALED(status) and os.WTERMSIG(status) == signal.SIGXCPU:
+        return (f"used up its processor time reading it ({base_seconds():g} s plus 1 s per 2 MiB of the file and "
+                f"of the data it declares) and was stopped: damaged metadata can make it loop; for a valid body "
+                f"raise {SECONDS_ENV} (now {base_seconds():g} s)")
+    return _crash(status, "reading it") if status is not None else "stopped without a result"
 
 
 def _crash(status: int, doing: str) -> str:

@@ -73,11 +73,27 @@ class Budget:
         """Charge ``nbytes`` read by the child, ``copies`` times: ``TREE_BYTES_PER_BYTE`` for what the parent
         receives too, 1 for a working set the child alone holds (blocks of a streamed pass)."""
         tree = nbytes * copies
+        declare_work(nbytes)
         if self.used + tree > self.limit:
             raise BodyFileError(self.path, field, f"data that fit the memory limit of {human(self.limit)} "
                                 f"(--max-memory or {ENV})", f"{human(nbytes)} declared, "
                                 f"{human(self.used + tree)} for the process tree with what was read before")
         self.used += int(tree)
+
+
+_work_hooks: list = []  # set in a guarded reading child (io.guard): its processor time grows with the work
+
+
+def on_declared_work(hook) -> None:
+    """``hook(nbytes)`` for every size declared from now on (this process only: a reading child)."""
+    _work_hooks[:] = [hook]
+
+
+def declare_work(nbytes: float) -> None:
+    """A size the reading is about to process (read, inflate, sum over): the guard's bound on the child's
+    processor time grows with it, not with the file's (compressed) size or the clock."""
+    for hook in _work_hooks:
+        hook(nbytes)
 
 
 def check_file_size(path, factor: float = 1.0) -> None:

@@ -1,8 +1,8 @@
 """MAPDL elements as cells (io.ansys_cells): the meshes ansys-mapdl-reader ships (TetBeam.cdb: 3913 SOLID187
 written with their corners only; sector.cdb: 101 SOLID185 bricks and 4 degenerate prisms; HexBeam.cdb: 40
-SOLID186 bricks), every degenerate form of SOLID185/186 built on a unit cube, and the element types refused by
-name. Masses are checked against integrals that do not use the elements: the divergence theorem on the mesh's
-boundary faces, or the cube's own."""
+SOLID186 bricks), every degenerate form of SOLID185/186 built on unit cubes, their corner stresses, and the
+element types refused by name. Masses are checked against integrals that do not use the elements: the
+divergence theorem on the mesh's boundary faces, or the cube's own."""
 from __future__ import annotations
 
 import itertools
@@ -29,7 +29,9 @@ from ffrf_advisor.fe.material import Material  # noqa: E402
 from ffrf_advisor.fe.mesh import Mesh  # noqa: E402
 from ffrf_advisor.io import ansys  # noqa: E402
 from ffrf_advisor.io.ansys_cells import cells_of, refuse_unreadable  # noqa: E402
-from ffrf_advisor.io.ansys_files import AnsysRun  # noqa: E402
+from ffrf_advisor.io.ansys_fe import nodal_von_mises  # noqa: E402
+from ffrf_advisor.io.ansys_files import AnsysRun, _corner_stress  # noqa: E402
+from ffrf_advisor.io.limits import Budget  # noqa: E402
 
 EXAMPLES = Path(examples.__file__).parent
 ROUND_OFF = 1e-12  # sums over a few thousand elements' quadrature points in double precision: ~1e-14, margin 100
@@ -370,3 +372,50 @@ def test_an_inverted_element_is_refused_in_one_line(tet_run):
     with pytest.raises(BodyFileError, match=r"tet\.rst: elements: expected elements with a positive Jacobian "
                        r"\(MAPDL's node order\), got element 8 \(tetra\) inverted"):
         ansys.body_of("tet.rst", replace(run, cells={"tetra": conn}))
+
+
+# ---------------------------------------------------------------- corner stresses of every form
+class _Stresses:
+    """A result's element stresses as ansys-mapdl-reader returns them: per element (by number) the six
+    components at its first listed nodes (8 for SOLID185/186 in every form, 4 for SOLID187) with those nodes;
+    here the uniaxial field SX = x (a linear field: a mid-edge node's value is its edge's mean)."""
+
+    def __init__(self, X, nodes, elem, routines):
+        self.rows = [(e[8], e[10:10 + (4 if t == 187 else 8)]) for e, t in zip(elem, routines)]
+        self.x = dict(zip(nodes.tolist(), X[:, 0]))
+
+    def element_stress(self, mode: int):
+        rows = sorted(self.rows, key=lambda r: r[0])
+        values = [np.array([[self.x[int(n)], 0, 0, 0, 0, 0] for n in listed]) for _, listed in rows]
+        return np.array([r[0] for r in rows]), values, [np.asarray(listed) for _, listed in rows]
+
+
+@pytest.mark.parametrize("mesh", ["TetBeam.cdb", "sector.cdb", "prism", "pyramid", "tetrahedron", "solid187"])
+def test_corner_stresses_of_every_form_give_the_field_at_every_node(mesh):
+    """The nodal von Mises of SX = x is |x| at every node, mid-edge nodes included: each cell's corners
+    picked from the element's listed nodes, mid-edge values from their edge's corners."""
+    if mesh.endswith(".cdb"):
+        X, nodes, elem, routines = _archive(mesh)
+    else:
+        X, nodes, elem, routines = _elements("tetrahedron" if mesh == "solid187" else mesh, True, cubes=3)
+        if mesh == "solid187":
+            elem = [np.r_[e[:10], e[10:][[0, 1, 2, 4, 8, 9, 11, 16, 17, 18]]] for e in elem]
+            routines = np.full(len(elem), 187)
+        X = X - (1.5, 0.0, 0.0)  # SX changes sign inside the bar
+    cells, rows = cells_of(mesh, elem, routines, nodes)
+    enum = np.array([e[8] for e in elem])
+    stress = _corner_stress(mesh, _Stresses(X, nodes, elem, routines), cells, rows, enum, nodes, 1, Budget(mesh))
+    run = replace(_run_stub(X, cells), corner_stress=stress)
+    used = np.unique(np.concatenate([c.ravel() for c in cells.values()]))
+    vm = nodal_von_mises(run, np.eye(1))[:, 0]
+    # corner stresses are kept in float32, as the file holds them: 6e-8 of the largest
+    assert np.abs(vm[used] - np.abs(X[used, 0])).max() < 1e-6 * np.abs(X[:, 0]).max()
+
+
+def _run_stub(X: np.ndarray, cells: dict) -> AnsysRun:
+    """A run holding only what nodal_von_mises reads: points and cells."""
+    empty = sp.csr_array((0, 0))
+    return AnsysRun(source="", full="", nodes=np.arange(len(X)), points=X, cells=cells, cell_material={},
+                    cell_numbers={}, element_types={}, materials={}, cell_materials=set(), units="",
+                    eigenvalues=np.zeros(1), modes=np.zeros((len(X), 3, 1)), corner_stress=None, M=empty, K=empty,
+                    constrained=np.zeros(0, bool))

@@ -4,7 +4,7 @@ docs/format.md says what to request.
 
 Nodes, solid elements (SOLID185/186 bricks and their degenerate prisms, pyramids and tetrahedra, SOLID187;
 MASS21 without rotary inertia is carried by the .full's M; ``ansys_cells``), eigenvalues, modes (UX, UY, UZ)
-and the corner stresses of bricks from the .rst; the mass M (checked against the elements' own on its nodal
+and the elements' corner stresses from the .rst; the mass M (checked against the elements' own on its nodal
 sums) and stiffness K from the .full. Units from /UNITS, a ``units`` option or the
 materials (``ansys_units``). K is the free body's when the .full's is free; a .full written with
 constraints lacks their couplings, and then the elements' own stiffness is used where it reproduces the
@@ -73,7 +73,7 @@ def body_of(path, run: AnsysRun, units: str | None = None) -> FlexibleBody:
              f"{', '.join(f'{len(c)} {t}' for t, c in mesh.cells.items()) or 'none'}", choice.note, material_note,
              stiffness_note, modes_note, mass_note,
              "modal von Mises stress from the corner stresses, averaged at the nodes" if stress is not None else
-             "no modal stresses (corner stresses are read for hexahedra only, with ENS in the .rst)")
+             "no modal stresses (no element stresses in the .rst)")
     kept = None if K is None else material  # the static response needs the K the modes belong to
     body = fe_body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi, lam,
                    Provenance(source=str(path), mass_matrix="consistent" if run.M.nnz > 3 * n else "lumped",

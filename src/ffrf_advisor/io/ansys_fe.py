@@ -9,10 +9,11 @@ import scipy.sparse as sp
 
 from ..errors import BodyFileError
 from ..fe.assembly import full_mass, stiffness_matrix
-from ..fe.elements import EDGES, element_type
+from ..fe.elements import EDGES, TETRA_EDGES, WEDGE_EDGES, element_type
 from ..fe.material import Material
 from ..fe.mesh import Mesh
 from ..fe.modal import rigid_modes, rigid_residual
+from ..fe.pyramid import PYRAMID_EDGES
 from ..fe.stress import von_mises
 from .ansys_files import AnsysRun
 
@@ -30,6 +31,7 @@ MOMENT_TOL = 1e-3  # m, CoM and second moments of the .full's Ms against the ele
 STRAIGHT_ORDER = {"tetra": 2, "wedge": 3, "pyramid": 3, "hexahedron": 3}  # points per direction exact for rho x x^T
 # det J of straight elements: degree 2 in total on a tetrahedron (affine), <= 4 per coordinate on a distorted brick
 CHUNK = 20_000  # elements per block of quadrature points (ne x nq x 3 x 3 Jacobians: 39 MB at 27 points)
+CELL_EDGES = {"hexahedron": EDGES, "wedge": WEDGE_EDGES, "pyramid": PYRAMID_EDGES, "tetra": TETRA_EDGES}  # VTK's
 VOIGT = [[0, 3, 5], [3, 1, 4], [5, 4, 2]]  # the tensor's entries among MAPDL's SX, SY, SZ, SXY, SYZ, SXZ
 
 
@@ -136,16 +138,17 @@ def free_stiffness(run: AnsysRun, mesh: Mesh, material: Material | None) -> tupl
 
 def nodal_von_mises(run: AnsysRun, combine: np.ndarray) -> np.ndarray | None:
     """Von Mises stress (n, k) of the modes ``run.modes @ combine`` (nm x k) at each node, averaged over the
-    elements that share it (as for Nastran, io.nastran_stress); a 20-node hexahedron's mid-edge value is its
+    elements that share it (as for Nastran, io.nastran_stress); a quadratic cell's mid-edge value is its
     edge's mean tensor. None without corner stresses."""
     if run.corner_stress is None:
         return None
     n, k = len(run.points), combine.shape[1]
     total, count = np.zeros((n, k)), np.zeros(n)
     for cell, conn in run.cells.items():
-        s = run.corner_stress[cell].astype(float) @ combine  # (ne, 8, 6, k)
-        if cell == "hexahedron20":
-            s = np.concatenate([s, 0.5 * (s[:, [a for a, _ in EDGES]] + s[:, [b for _, b in EDGES]])], axis=1)
+        s = run.corner_stress[cell].astype(float) @ combine  # (ne, corners, 6, k)
+        if conn.shape[1] > s.shape[1]:
+            edges = CELL_EDGES[cell.rstrip("0123456789")]
+            s = np.concatenate([s, 0.5 * (s[:, [a for a, _ in edges]] + s[:, [b for _, b in edges]])], axis=1)
         np.add.at(total, conn.ravel(), von_mises(np.moveaxis(s[..., VOIGT, :], -1, -3)).reshape(-1, k))
         np.add.at(count, conn.ravel(), 1.0)
     return total / np.maximum(count, 1.0)[:, None]

@@ -22,8 +22,7 @@ ANALYSES = {0: "static", 1: "buckling", 3: "harmonic", 4: "transient", 7: "subst
 FAMILIES = {"SOLID": (45, 92, 95, 185, 186, 187, 285), "SHELL": (63, 181, 208, 209, 281), "BEAM": (4, 44, 188, 189),
             "MASS": (21,), "COMBIN": (14, 39, 40), "LINK": (180,), "MPC": (184,), "PLANE": (182, 183),
             "SURF": (154, 156), "TARGE": (169, 170), "CONTA": (171, 172, 173, 174, 175, 177), "MESH": (200,)}
-HEXAHEDRA = ("hexahedron", "hexahedron20")  # the cells whose corner stresses are read
-CORNERS = 8  # stresses of a hexahedron are written at its corners
+CORNERS = {"hexahedron": 8, "wedge": 6, "pyramid": 5, "tetra": 4}  # corners of each cell family (VTK lists them first)
 
 
 @dataclass
@@ -45,8 +44,8 @@ class AnsysRun:
     units: str                     # the /UNITS record as the library names it ("User Defined", "SI", ...)
     eigenvalues: np.ndarray        # (nm,) (2 pi f)^2
     modes: np.ndarray              # (n, 3, nm) UX, UY, UZ
-    corner_stress: dict[str, np.ndarray] | None  # cell type -> (ne, 8, 6, nm) SX SY SZ SXY SYZ SXZ (float32);
-    # None when the run has no element stresses or not every cell is a hexahedron
+    corner_stress: dict[str, np.ndarray] | None  # cell type -> (ne, corners, 6, nm) SX SY SZ SXY SYZ SXZ
+    # (float32); None when the run has no element stresses
     M: sp.csr_array
     K: sp.csr_array
     constrained: np.ndarray        # (3n,) bool: DOFs the .full's run held
@@ -125,7 +124,7 @@ def _result(lib, rst: str, budget: Budget) -> AnsysRun:
     modes = np.stack([_at_nodes(rst, nodes, *r.nodal_solution(i), f"NSL of mode {i + 1}")
                       for i in range(len(frequencies))], axis=-1)
     stress = _corner_stress(rst, r, cells, rows, np.asarray(mesh.enum), nodes, len(frequencies), budget) \
-        if cells and set(cells) <= set(HEXAHEDRA) and r.available_results["ENS"] else None
+        if cells and r.available_results["ENS"] else None
     empty = sp.csr_array((0, 0))
     return AnsysRun(source=rst, full="", nodes=nodes, points=points, cells=cells,
                     cell_material={t: material[k] for t, k in rows.items()},
@@ -152,11 +151,19 @@ def _at_nodes(rst, nodes: np.ndarray, nnum: np.ndarray, values: np.ndarray, fiel
     return values
 
 
+def corners(kind: str) -> int:
+    """The corners of a cell type (VTK lists them first): 8, 6, 5 or 4."""
+    return CORNERS[kind.rstrip("0123456789")]
+
+
 def _corner_stress(rst, r, cells: dict, rows: dict, enum: np.ndarray, nodes: np.ndarray, nm: int,
                    budget: Budget) -> dict[str, np.ndarray]:
-    """Per cell type, the component stresses at each hexahedron's corners (ne, 8, 6, nm) as the file holds them."""
-    budget.take("ENS", 4.0 * CORNERS * 6 * nm * sum(len(c) for c in cells.values()))
-    out = {t: np.zeros((len(c), CORNERS, 6, nm), np.float32) for t, c in cells.items()}
+    """Per cell type, the component stresses at each cell's corners (ne, nc, 6, nm) as the file holds them. MAPDL
+    writes them at the element's first listed nodes (8 for SOLID185/186 in every form, a collapsed corner
+    repeated; 4 for SOLID187), which the library returns with them."""
+    budget.take("ENS", 4.0 * 6 * nm * sum(len(c) * corners(t) for t, c in cells.items()))
+    out = {t: np.zeros((len(c), corners(t), 6, nm), np.float32) for t, c in cells.items()}
+    picks: dict[str, np.ndarray | None] = {}
     for p in range(nm):
         numbers, values, enodes = r.element_stress(p)
         numbers = np.asarray(numbers)
@@ -164,14 +171,27 @@ def _corner_stress(rst, r, cells: dict, rows: dict, enum: np.ndarray, nodes: np.
             wanted = enum[rows[t]]
             at = np.minimum(np.searchsorted(numbers, wanted), max(len(numbers) - 1, 0))
             ok = len(numbers) > 0 and np.array_equal(numbers[at], wanted) and \
-                all(np.shape(values[k]) == (CORNERS, 6) for k in at)
-            v = np.stack([values[k] for k in at]) if ok else None
-            if not ok or not np.all(np.isfinite(v)) or not np.array_equal(
-                    np.stack([np.asarray(enodes[k]) for k in at]), nodes[conn[:, :CORNERS]]):
+                all(np.shape(values[k]) == (len(enodes[k]), 6) for k in at)
+            if ok and t not in picks:
+                picks[t] = _positions([enodes[k] for k in at], nodes[conn[:, :corners(t)]])
+            v = np.stack([np.asarray(values[k])[q] for k, q in zip(at, picks[t])]) \
+                if ok and picks[t] is not None else None
+            if v is None or not np.all(np.isfinite(v)):
                 raise BodyFileError(rst, f"ENS of mode {p + 1}", "finite stresses at the corners of every element "
                                     "(MXPAND,,,,YES with OUTRES,ALL,ALL)", "missing or other elements' stresses")
             out[t][:, :, :, p] = v
     return out
+
+
+def _positions(enodes: list, corner_nodes: np.ndarray) -> np.ndarray | None:
+    """Per element, where each of its corners (ne, nc) lies among the nodes its stresses are given at, or None
+    when a corner has no stress."""
+    width = max((len(e) for e in enodes), default=0)
+    listed = np.full((len(enodes), width), -1, np.int64)
+    for i, e in enumerate(enodes):
+        listed[i, :len(e)] = e
+    match = listed[:, :, None] == corner_nodes[:, None, :]
+    return match.argmax(axis=1) if match.any(axis=1).all() else None
 
 
 def _matrices(lib, full: str, nodes: np.ndarray, budget: Budget) -> tuple[sp.csr_array, sp.csr_array, np.ndarray]:

@@ -299,3 +299,15 @@ def test_b32_beams_with_a_knot_read_with_their_mass(tmp_path):
         assert any("not checked against the .dat" in n for n in body.provenance.notes)
         assert np.allclose(body.frequencies_hz, _dat(frd.parent), rtol=1e-6)
         assert all(c.passed for c in run_checks(body)), [(c.name, c.value) for c in run_checks(body)]
+
+
+@pytest.mark.parametrize("name, solid, why", [("S4", "C3D8I", "gives its incompatible modes mass"),
+                                              ("S4R", "C3D8R", "integrates its mass at one point")])
+def test_four_node_shells_are_refused_without_the_mas_by_their_name(tmp_path, name, solid, why):
+    """CalculiX expands S4 into C3D8I and S4R into C3D8R, whose mass the tool does not integrate as CalculiX does:
+    refused naming the shell and what CalculiX made of it."""
+    points, cells = l_profile(16.0)
+    used, corners = np.unique(cells[:, :4], return_inverse=True)
+    frd = _flat_deck(tmp_path, points[used], name, corners.reshape(-1, 4), SHELL[1])
+    with pytest.raises(BodyFileError, match=rf"part\.frd: 3C: .*got {name} \(expanded into {solid}: CalculiX {why}\)"):
+        read_body(frd)

@@ -35,7 +35,8 @@ from .calculix_mass import (carried_masses, check_modal_masses, check_total_mass
 # CalculiX's C3D8R mass (one point, hourglass control) and C3D8I's incompatible modes (mass of their own) have no
 # rule in fe.code_rules: its modes are those of another mass (modal masses 35 % and 10 % off on a bar)
 UNCARRIED = {"C3D8R": "integrates its mass at one point", "C3D8I": "gives its incompatible modes mass"}
-EXPANDED = {"S8R": "C3D20R", "S8": "C3D20", "B32R": "C3D20R", "B32": "C3D20"}  # CalculiX's 3D form of each
+EXPANDED = {"S3": "C3D6", "S6": "C3D15", "S4": "C3D8I", "S4R": "C3D8R", "S8": "C3D20", "S8R": "C3D20R",
+            "B31": "C3D8I", "B31R": "C3D8R", "B32": "C3D20", "B32R": "C3D20R"}  # CalculiX 2.20's 3D form of each
 RIGID_TOL = 1e-6  # |lambda| / largest |lambda| below which a mode is rigid
 N_RIGID = 6
 
@@ -123,12 +124,15 @@ def _assembled(frd: Frd, deck: Deck | None, mesh: Mesh, why: str | None, stem: P
     cannot integrate as CalculiX does is refused by its CalculiX name, with the way forward."""
     rules = {}
     for cell_type in mesh.cells:
-        names = {EXPANDED.get(n, n) for n in _names(frd, deck, cell_type).split(", ")}
-        coarse = sorted(names & set(UNCARRIED))
+        given = _names(frd, deck, cell_type).split(", ")
+        names = {EXPANDED.get(n, n) for n in given}
+        coarse = [n for n in given if EXPANDED.get(n, n) in UNCARRIED]
         if coarse:
+            solid = EXPANDED.get(coarse[0], coarse[0])
             frd.fail("3C", "elements whose mass CalculiX integrates as the tool does, or CalculiX's stored matrices "
                      "(*FREQUENCY, SOLVER=MATRIXSTORAGE, .mas/.dof beside the .frd)" + (f"; {why}" if why else ""),
-                     f"{coarse[0]} (CalculiX {UNCARRIED[coarse[0]]})")
+                     f"{coarse[0]} (" + (f"expanded into {solid}: " if solid != coarse[0] else "")
+                     + f"CalculiX {UNCARRIED[solid]})")
         try:
             element_type(cell_type)
         except ValueError:

@@ -70,7 +70,7 @@ def dof_rows(dof: Path, index: dict[int, int], ids: np.ndarray, points: np.ndarr
         return (rows, None) if rows is not None else (None, (
             f"{dof.name} holds node {twice[0]} more than once (CalculiX's shells or beams expanded into 3D "
             "elements, labelled with the shell or beam node) and rows the .frd's nodes do not match one by one "
-            "(a knot)"))
+            "(a knot, or the extra nodes of C3D8I's incompatible modes)"))
     alien = [n for n, c in labels if n not in index or not 1 <= c <= 3]
     if alien:
         return None, (f"{dof.name} holds node {alien[0]}, which is no node of the .frd (a *RIGID BODY's REF or "

@@ -338,3 +338,11 @@ def test_param_wtmass_of_the_deck_scales_the_mass_as_nastran_does_and_the_checks
     assert nastran_props.of_nodal_mass(mass, run.points).mass == pytest.approx(0.25 * RHO * BOX.prod(), rel=ROUND)
     notes = " ".join(mass.notes)
     assert "times PARAM,WTMASS 0.25" in notes and all(f"{q} within" in notes for q in ("mass", "CG", "inertia"))
+
+
+def test_a_solid_on_a_grid_without_a_mode_shape_is_refused_naming_both():
+    points, cells = _corner_cells("CTETRA", counts=(1, 1, 1))
+    model = _model(points, cells, "CTETRA")
+    with pytest.raises(BodyFileError, match=r"t\.op2: CTETRA 1: expected grids with mode shapes in the OP2 "
+                                            r"\(DISP=ALL\), got grid 8"):
+        nastran_mass.assembled_mass("t.op2", model, _run(points[:-1], {"CTETRA": len(cells)}))

@@ -90,7 +90,7 @@ def _element_mass(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: 
     for e in m.elements.values():
         if e.type in MASSLESS:
             continue
-        nodes = [index[g] for g in e.nodes if g is not None]  # ids (node_ids: 80 us an element)
+        nodes = _indices(path, e, [g for g in e.nodes if g is not None], index)  # ids (node_ids: 80 us each)
         if e.type in nastran_solids.SOLIDS:
             cell = nastran_solids.cell_of(path, e, nodes)
             conns, eids = solids.setdefault((cell, float(e.Rho())), ([], []))
@@ -114,7 +114,7 @@ def _point_masses(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: 
     for c in m.masses.values():
         if c.type != "CONM2":
             raise BodyFileError(path, "masses", f"CONM2 point masses, or {FORWARD}", c.type)
-        i = index[c.nid]
+        i = _indices(path, c, [c.nid], index)[0]
         cg, inertia = np.asarray(c.Centroid(), dtype=float), _conm2_inertia(path, c)
         if np.linalg.norm(cg - run.points[i]) <= 1e-12 * max(1.0, np.abs(run.points).max()):
             diag[i] += c.mass
@@ -122,6 +122,15 @@ def _point_masses(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: 
         else:
             extra.append((cg, i, c.mass, inertia))
     return extra
+
+
+def _indices(path, card, grids: list[int], index: dict) -> list[int]:
+    """The run's indices of a card's grids; a grid without a mode shape refused naming the card."""
+    try:
+        return [index[g] for g in grids]
+    except KeyError as e:
+        raise BodyFileError(path, f"{card.type} {card.eid}", "grids with mode shapes in the OP2 (DISP=ALL)",
+                            f"grid {e.args[0]}") from None
 
 
 def _conm2_inertia(path, c) -> np.ndarray:

@@ -99,9 +99,8 @@ def _expanded(frd: Frd, deck: Deck | None) -> str | None:
     """A note naming the shells and beams CalculiX expanded into the .frd's 3D elements, or None."""
     if deck is None:
         return None
-    names = sorted({deck.element_names.get(n, "C3D") for t in frd.numbers for n in frd.numbers[t]}
-                   - {""} - {n for n in deck.element_names.values() if n.startswith("C3D")})
-    shells = [n for n in names if n[:1] in "SBM"]
+    names = {deck.element_names.get(n, "") for numbers in frd.numbers.values() for n in numbers}
+    shells = sorted(names & set(EXPANDED))
     return f"{', '.join(shells)} read as CalculiX's expansion into 3D elements" if shells else None
 
 
@@ -234,14 +233,9 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
 
 
 def _deck_material_for(deck: Deck | None, mesh: Mesh):
-    """The deck's material where the tool can assemble the stiffness of every element of a mesh whose every
-    node is in an element (a spider's REF NODE is not: no static response then), else None."""
-    material = deck_material(deck)
+    """The deck's material where every node is in an element (a spider's REF NODE is not: its stiffness would be
+    singular, no static response then), else None."""
     used = np.zeros(mesh.n_nodes, bool)
     for conn in mesh.cells.values():
         used[conn.ravel()] = True
-    try:
-        [element_type(t) for t in mesh.cells]
-    except ValueError:
-        return None
-    return material if used.all() else None
+    return deck_material(deck) if used.all() else None

@@ -135,7 +135,7 @@ def test_a_model_over_the_element_limit_is_not_compared_and_says_so(monkeypatch)
     mass = nastran_mass.assembled_mass("t.bdf", model, _run(points, {"CTETRA": len(cells)}))
     monkeypatch.setattr(nastran_props, "MAX_ELEMENTS", len(cells) - 1)
     note = nastran_props.checked("t.bdf", model, mass, points, True)[-1]
-    assert note.startswith(f"pyNastran's mass properties not compared: {len(cells)} elements")
+    assert note.startswith(f"pyNastran's mass properties not compared: {len(cells)} cards")
 
 
 def test_mirrored_tetrahedra_keep_the_mass_and_are_not_compared_with_pyNastrans_signed_volumes():

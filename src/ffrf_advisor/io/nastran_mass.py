@@ -99,13 +99,17 @@ def _element_mass(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: 
         elif e.type in LINES:
             a, b = nodes[:2]
             diag[[a, b]] += float(e.Mass()) / 2
-            if e.type == "CBEAM":  # half the torsional inertia rho J L at each end, about the axis
-                axis = (run.points[b] - run.points[a]) / e.Length()
-                torsion = e.pid_ref.mid_ref.rho * np.atleast_1d(e.pid_ref.J())[0] * e.Length() / 2
-                J[[a, b]] += torsion * np.outer(axis, axis)
+            if e.type == "CBEAM":  # half the torsional inertia at each end
+                J[[a, b]] += beam_torsion(e, run.points[a], run.points[b]) / 2
         else:
             diag[nodes] += float(e.Mass()) / len(nodes)
     return solids
+
+
+def beam_torsion(e, xa: np.ndarray, xb: np.ndarray) -> np.ndarray:
+    """A CBEAM's torsional inertia rho J L about its axis (3 x 3, basic), from its ends' positions."""
+    axis = (xb - xa) / np.linalg.norm(xb - xa)
+    return e.pid_ref.mid_ref.rho * np.atleast_1d(e.pid_ref.J())[0] * e.Length() * np.outer(axis, axis)
 
 
 def _point_masses(path, m, run: NastranModes, index: dict, diag: np.ndarray, J: np.ndarray) -> list[tuple]:

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import BodyFileError, FFRFError
 from ..fe.elements import element_type
-from .nastran_mass import LINES, SHELLS, NodalMass, wtmass
+from .nastran_mass import LINES, SHELLS, NodalMass, beam_torsion, wtmass
 from .nastran_solids import NASTRAN
 from .pynastran import quietly
 
@@ -58,8 +58,8 @@ def checked(path, m, mass: NodalMass, points: np.ndarray, assembled: bool) -> li
         return notes
     count = len(m.elements) + len(m.masses)
     if count > MAX_ELEMENTS:
-        return notes + [f"pyNastran's mass properties not compared: {count} elements, over the {MAX_ELEMENTS} "
-                        "its loop over the cards takes in seconds"]
+        return notes + [f"pyNastran's mass properties not compared: {count} cards, more than the {MAX_ELEMENTS} "
+                        "its loop over them takes in seconds"]
     return notes + _against_pynastran(path, m, mass, points, ours, w)
 
 
@@ -133,8 +133,7 @@ def own_inertia(m, mass: NodalMass, points: np.ndarray) -> np.ndarray:
         Y = X - X.mean(axis=0)
         I += float(e.Mass()) / len(X) * _inertia_of(Y.T @ Y)
         if e.type == "CBEAM":
-            axis = (X[1] - X[0]) / np.linalg.norm(X[1] - X[0])
-            I += e.pid_ref.mid_ref.rho * np.atleast_1d(e.pid_ref.J())[0] * e.Length() * np.outer(axis, axis)
+            I += beam_torsion(e, X[0], X[1])
     return I
 
 

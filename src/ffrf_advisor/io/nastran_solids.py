@@ -2,8 +2,8 @@
 
 Corners: Nastran and VTK number them alike. Mid-side nodes: CTETRA10 and CPYRAM13 alike too; CPENTA15 and
 CHEXA20 list the edges between the two end faces before the top face's edges, VTK after them. Nastran takes
-either handedness of an element, the FE module the VTK one (its corner tetrahedron 0, 1, 3 or 2, 4 positive),
-so a mirrored element is renumbered to its mirror image: the same solid, the same mass.
+either handedness of an element, the FE module the VTK one (``CORNER_TET`` of positive volume), so a mirrored
+element is renumbered to its mirror image: the same solid, the same mass.
 """
 from __future__ import annotations
 
@@ -17,6 +17,7 @@ CELLS = {("CTETRA", 4): "tetra", ("CTETRA", 10): "tetra10", ("CPENTA", 6): "wedg
          ("CPYRAM", 5): "pyramid", ("CPYRAM", 13): "pyramid13", ("CHEXA", 8): "hexahedron",
          ("CHEXA", 20): "hexahedron20"}
 SOLIDS = tuple(sorted({name for name, _ in CELLS}))
+NASTRAN = {cell: name for (name, _), cell in CELLS.items()}
 # VTK node k of a cell is Nastran grid TO_VTK[cell][k] of the element (identity where absent).
 TO_VTK = {"wedge15": [0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 13, 14, 9, 10, 11],
           "hexahedron20": list(range(12)) + list(range(16, 20)) + list(range(12, 16))}
@@ -83,5 +84,3 @@ def _first_failing(points: np.ndarray, cell: str, conn: np.ndarray) -> int:
             hi = mid
     return lo
 
-
-NASTRAN = {cell: name for (name, _), cell in CELLS.items()}

@@ -21,7 +21,7 @@ import scipy.sparse as sp
 
 from ..errors import BodyFileError
 from ..fe.assembly import full_mass
-from .calculix_deck import Deck
+from .calculix_deck import Deck, text_lines
 from .limits import check_file_size
 
 DAT_DIGITS = 7  # the .dat prints E14.7: 7 significant digits
@@ -207,7 +207,6 @@ def dat_total_mass(path: Path) -> np.ndarray | None:
     """The x, y, z components of the .dat's 'TOTAL EFFECTIVE MASS' of the last frequency step, or None."""
     if not path.is_file():
         return None
-    from .calculix_deck import text_lines
     total, armed = None, False
     for line in text_lines(path):
         if TOTAL_MASS in line:

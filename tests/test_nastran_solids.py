@@ -346,3 +346,26 @@ def test_a_solid_on_a_grid_without_a_mode_shape_is_refused_naming_both():
     with pytest.raises(BodyFileError, match=r"t\.op2: CTETRA 1: expected grids with mode shapes in the OP2 "
                                             r"\(DISP=ALL\), got grid 8"):
         nastran_mass.assembled_mass("t.op2", model, _run(points[:-1], {"CTETRA": len(cells)}))
+
+
+def test_modes_of_a_lumped_mass_are_flagged_against_the_assembled_consistent_one(tmp_path):
+    """Nastran lumps the mass of solids unless PARAM,COUPMASS,1: modes normalised to a lumped mass disagree
+    with the consistent mass the reader assembles, and the provenance and the checks say so."""
+    from ffrf_advisor.checks import run_checks
+    from ffrf_advisor.fe.assembly import stiffness_matrix
+    from ffrf_advisor.fe.material import Material
+    from ffrf_advisor.fe.modal import free_free_modes, rigid_modes
+    from ffrf_advisor.io import read_body
+
+    points, cells = _corner_cells("CTETRA", counts=(2, 1, 1))
+    mesh = Mesh(points, {"tetra": np.array(cells)})
+    modal = free_free_modes(stiffness_matrix(mesh, Material("steel", E, NU, RHO)),
+                            mass_matrix(mesh, RHO, lumping="rowsum"), points, N_FLEX)
+    n = len(points)
+    modes = np.zeros((6 + N_FLEX, n, 6))
+    modes[:, :, :3] = np.concatenate([rigid_modes(points).reshape(n, 3, 6), modal.Phi], axis=2).transpose(2, 0, 1)
+    _write_op2(tmp_path / "lumped.op2", _model(points, cells, "CTETRA"), points,
+               np.r_[np.zeros(6), modal.eigenvalues], modes)
+    body = read_body(tmp_path / "lumped.op2")
+    assert "PARAM,COUPMASS,1 or MAAX punched beside the OP2" in " ".join(body.provenance.notes)
+    assert not next(c for c in run_checks(body) if c.name == "mass_normalisation").passed

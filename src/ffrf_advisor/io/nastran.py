@@ -199,7 +199,10 @@ def _mass_notes(run: NastranModes, mass: NodalMass, flex: np.ndarray) -> list[st
             f"six rigid modes dropped, the others scaled by their generalised masses; {mass.what} gives them "
             f"within {error:.2g}"
             + ("" if error <= GENMASS_TOL else " (warning: more than float32 round-off: Nastran's mass differs, "
-                                               "or the body model cannot hold all of it, theory 3b)")]
+                                               "e.g. its default lumped mass of solids and shells, where "
+                                               "PARAM,COUPMASS,1 or MAAX punched beside the OP2 give the mass "
+                                               "the modes were computed with; or the body model cannot hold all "
+                                               "of it, theory 3b)")]
 
 
 def _matrix_notes(run: NastranModes, flex: np.ndarray, scale: np.ndarray, mass: NodalMass,

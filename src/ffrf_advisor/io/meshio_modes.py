@@ -31,6 +31,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..body import CASES, FlexibleBody, ModalFE, NodalRotary, Provenance
+from ..consistency import check_frequencies, check_mode_numbers, checked
 from ..errors import BodyFileError, FFRFError
 from ..fe.assembly import full_mass, mass_matrix
 from ..fe.material import Material
@@ -60,8 +61,7 @@ def _modes(path, m, n_nodes: int) -> tuple[list[int], np.ndarray]:
     numbers = sorted(int(g.group(1)) for key in m.point_data if (g := _MODE.match(key)))
     if not numbers:
         raise BodyFileError(path, "point_data/mode_1", "mode shapes as point data mode_1 .. mode_n", "none")
-    if numbers != list(range(1, len(numbers) + 1)):
-        raise BodyFileError(path, "point_data/mode_*", "consecutive mode_1 .. mode_n", str(numbers[:8]))
+    check_mode_numbers(path, "point_data/mode_*", numbers, first=1)
     Phi = np.stack([np.asarray(m.point_data[f"mode_{p}"], dtype=float) for p in numbers], axis=-1)
     if Phi.shape != (n_nodes, 3, len(numbers)) or not np.all(np.isfinite(Phi)):
         raise BodyFileError(path, "point_data/mode_*", f"finite ({n_nodes}, 3) vectors per mode", str(Phi.shape))
@@ -81,6 +81,7 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
     numbers, Phi = _modes(path, m, mesh.n_nodes)
     nf = len(numbers)
     lam = _numbers(path, "eigenvalues", _given(path, m, "eigenvalues", eigenvalues), nf)
+    _frequencies_agree(path, m, lam, eigenvalues is None)
     rho = _numbers(path, "density", _given(path, m, "density", density), 1)[0] if cells.distributed else 0.0
     bad_density = cells.distributed and rho <= 0
     if bad_density or np.any(lam <= 0):
@@ -96,8 +97,18 @@ def read(path, load_fe: bool = False, eigenvalues=None, density: float | None = 
                f"{', '.join(f'{1 / s:.4g}' for s in scale[:4])}{' ...' if nf > 4 else ''})",
                f"{mesh.n_cells} solid cells, {mesh.n_nodes} nodes", *notes))
     given = "--young, --poisson" if young is not None else "field data"
-    return _body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi, lam, stress, rotary, provenance,
-                 None if material is None else (replace(material, rho=rho), given))
+    return checked(_body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi, lam, stress, rotary, provenance,
+                 None if material is None else (replace(material, rho=rho), given)), path)
+
+
+def _frequencies_agree(path, m, lam: np.ndarray, from_file: bool) -> None:
+    """The file's second copy of the eigenvalues, field data ``frequencies_hz``, agrees with ``eigenvalues``
+    (``consistency.check_frequencies``; single precision where the file stores it so)."""
+    if from_file and "frequencies_hz" in m.field_data:
+        f = m.field_data["frequencies_hz"]
+        digits = 7 if np.asarray(f).dtype == np.float32 else None
+        check_frequencies(path, ("field_data/frequencies_hz", "field_data/eigenvalues"),
+                          _numbers(path, "field_data/frequencies_hz", f, len(lam)), lam, digits)
 
 
 def _body(name: str, mesh: Mesh, Ms, Phi: np.ndarray, lam: np.ndarray, stress, rotary: NodalRotary | None,

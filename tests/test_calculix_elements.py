@@ -324,3 +324,14 @@ def test_binary_frd_elements_map_to_the_deck_order(tmp_path, kind):
     body = read_body(tmp_path / "b.frd")
     assert body.provenance.digits == 7 and np.array_equal(body.fe.mesh.cells[kind], mesh.cells[kind])
     assert all(c.passed for c in run_checks(body)), [(c.name, c.value) for c in run_checks(body)]
+
+
+def test_a_point_mass_on_a_shell_node_is_refused_by_name(tmp_path):
+    """CalculiX keeps a shell node that carries a MASS element and ties it to its expanded nodes, which do not move
+    rigidly through the thickness (measured: z of the mid node 2e-3 off the faces'): which motion the mass takes is
+    not in the .frd, so the card is refused naming the node, never dropped."""
+    points, cells = l_profile(16.0)
+    corner = int(np.argmin(np.linalg.norm(points - [60.0, 0.0, 0.0], axis=1))) + 1
+    frd = _flat_deck(tmp_path, points, SHELL[0], cells, SHELL[1] + _mass_card(corner))
+    with pytest.raises(BodyFileError, match=rf"part\.inp: \*MASS: .*got a mass on node {corner}, which no element"):
+        read_body(frd)

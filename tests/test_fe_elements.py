@@ -409,3 +409,8 @@ def _calculix_matrix(stem, suffix, n):
     i, j = rows[i.astype(int) - 1], rows[j.astype(int) - 1]
     off = i != j
     return sp.coo_array((np.r_[v, v[off]], (np.r_[i, j[off]], np.r_[j, i[off]])), shape=(3 * n, 3 * n)).tocsr()
+
+
+def test_a_box_union_of_tetrahedra_is_refused_with_the_way_forward():
+    with pytest.raises(ValueError, match="tetra10.*box_split_mesh"):
+        box_mesh(SIZE, DIV, "tetra10")

@@ -105,6 +105,8 @@ def box_union_mesh(boxes: Sequence[Box], h: float | Sequence[float], cell_type: 
     axis). A grid cell belongs to the mesh when its centre lies in a box.
     """
     etype = element_type(cell_type)
+    if etype.family != "hexahedron":
+        raise ValueError(f"a box union is meshed with hexahedra, not {cell_type}: fe.split.box_split_mesh splits them")
     hs = np.broadcast_to(np.asarray(h, float), (3,))
     lines = [_grid_lines(boxes, d, hs[d]) for d in range(3)]
     centres = np.stack(np.meshgrid(*[(l[:-1] + l[1:]) / 2 for l in lines], indexing="ij"), -1)

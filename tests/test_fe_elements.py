@@ -414,3 +414,27 @@ def _calculix_matrix(stem, suffix, n):
 def test_a_box_union_of_tetrahedra_is_refused_with_the_way_forward():
     with pytest.raises(ValueError, match="tetra10.*box_split_mesh"):
         box_mesh(SIZE, DIV, "tetra10")
+
+
+@pytest.mark.parametrize("name", list(ELEMENT_TYPES))
+def test_faces_point_outward_and_the_boundary_of_a_box_is_its_six_sides(name):
+    """Each face's normal (Newell's, over its ring) points away from the reference element's centroid; on a box
+    split into the type, the faces that occur once are the box's outer faces, covering its area."""
+    from ffrf_advisor.fe.elements import element_faces
+    e = element_type(name)
+    centre = e.ref_nodes.mean(axis=0)
+    for face in element_faces(name):
+        ring = e.ref_nodes[list(face)]
+        normal = np.cross(ring, np.roll(ring, -1, axis=0)).sum(axis=0)
+        assert normal @ (ring.mean(axis=0) - centre) > 0, face
+    mesh = box_split_mesh(SIZE, DIV, name)
+    faces = [mesh.cells[name][:, list(f)] for f in element_faces(name)]
+    keys = [tuple(sorted(row)) for block in faces for row in block]
+    once = [k for k in set(keys) if keys.count(k) == 1]
+    assert set(keys) and all(keys.count(k) <= 2 for k in set(keys))  # conforming: no face shared by three
+    X = mesh.points
+    on_side = [np.any(np.all(np.isclose(np.abs(X[list(k)]), SIZE / 2), axis=0)) for k in once]
+    assert all(on_side)
+    area = sum(0.5 * np.linalg.norm(np.cross(X[list(r)], X[np.roll(list(r), -1)]).sum(axis=0))
+               for block in faces for r in block if tuple(sorted(r)) in set(once))
+    assert abs(area / (2 * (SIZE[0] * SIZE[1] + SIZE[1] * SIZE[2] + SIZE[0] * SIZE[2])) - 1) < 1e-12

@@ -20,7 +20,7 @@ import numpy as np
 
 from . import quadrature
 from .lagrange import LagrangeBasis, tetra_exponents, wedge_exponents
-from .pyramid import PYRAMID5_NODES, PYRAMID13_NODES, pyramid5, pyramid13
+from .pyramid import PYRAMID5_NODES, PYRAMID13_NODES, PYRAMID_EDGES, pyramid5, pyramid13
 
 _CORNERS = np.array(
     [[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
@@ -142,6 +142,29 @@ PYR5 = ElementType("pyramid", "pyramid", PYRAMID5_NODES, pyramid5, 2, 2)
 PYR13 = ElementType("pyramid13", "pyramid", PYRAMID13_NODES, pyramid13, 3, 5)
 
 ELEMENT_TYPES = {e.name: e for e in (HEX8, HEX20, HEX27, TET4, TET10, WEDGE6, WEDGE15, PYR5, PYR13)}
+
+
+# Faces by corner index, normals outward (right-hand rule), per family.
+_CORNER_FACES = {
+    "hexahedron": ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)),
+    "tetra": ((0, 2, 1), (0, 1, 3), (1, 2, 3), (2, 0, 3)),
+    "wedge": ((0, 2, 1), (3, 4, 5), (0, 1, 4, 3), (1, 2, 5, 4), (2, 0, 3, 5)),
+    "pyramid": ((0, 3, 2, 1), (0, 1, 4), (1, 2, 4), (2, 3, 4), (3, 0, 4)),
+}
+_EDGE_LISTS = {"hexahedron": EDGES, "tetra": TETRA_EDGES, "wedge": WEDGE_EDGES, "pyramid": PYRAMID_EDGES}
+
+
+def element_faces(name: str) -> tuple[tuple[int, ...], ...]:
+    """The faces of a cell type as rings of its node indices, outward: corners, or corner, mid-edge, corner, ...
+    for the quadratic types (their mid-face and centre nodes left out, as the 27-node hexahedron's)."""
+    etype = element_type(name)
+    edges = _EDGE_LISTS[etype.family]
+    corners = len({i for face in _CORNER_FACES[etype.family] for i in face})
+    if etype.n_nodes == corners:
+        return _CORNER_FACES[etype.family]
+    mid = {frozenset(e): corners + k for k, e in enumerate(edges)}
+    return tuple(tuple(x for a, b in zip(face, face[1:] + face[:1]) for x in (a, mid[frozenset((a, b))]))
+                 for face in _CORNER_FACES[etype.family])
 
 
 def element_type(name: str) -> ElementType:

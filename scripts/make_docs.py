@@ -6,6 +6,7 @@ rebuilt):
 - docs/samples.md, "What the advisor says": the blocks `advice` (the default advice at the moderate speed of
   1 rad/s, free connection), `rules` (the paper's inertia measures and the levels of `--rules thresholds` and
   `--rules paper`) and `stiff` (the levels with `--connection stiff`);
+- docs/elements.md: the block `elements`, the element types by reader (io.support, as `formats` prints them);
 - README.md, "Quick start": the block `example`, the beginning of what
   `ffrf-advisor analyze sample_bodies/beam.ffrf.h5 --speed 300rad/s` shows at 80 columns without colour
   (stdout and stderr as a terminal shows them).
@@ -32,6 +33,7 @@ from ffrf_advisor.samples import SAMPLES
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLES_MD = ROOT / "docs" / "samples.md"
+ELEMENTS_MD = ROOT / "docs" / "elements.md"
 README = ROOT / "README.md"
 SPEED = 1.0  # rad/s: the moderate speed of docs/samples.md (a vehicle-like rotation rate)
 
@@ -237,11 +239,18 @@ def readme_blocks() -> dict[str, str]:
     return {"example": readme_example()}
 
 
+# ------------------------------------------------------------------ docs/elements.md
+def elements_blocks() -> dict[str, str]:
+    """docs/elements.md's table: io.support's, the one `formats` prints."""
+    from ffrf_advisor.io import support
+    return {"elements": support.markdown()}
+
+
 # ------------------------------------------------------------------ main
 def rendered() -> dict[Path, str]:
     """Every file with its blocks as the tool would write them now."""
     out = {}
-    for path, blocks in ((SAMPLES_MD, samples_blocks()), (README, readme_blocks())):
+    for path, blocks in ((SAMPLES_MD, samples_blocks()), (README, readme_blocks()), (ELEMENTS_MD, elements_blocks())):
         text = path.read_text()
         for marker, content in blocks.items():
             text = replace_block(text, marker, content)

@@ -78,3 +78,7 @@ def test_api_example_runs_and_prints_what_the_page_says(monkeypatch, capsys):
     assert capsys.readouterr().out == printed
     assert namespace["a"].advice.level == printed.split()[0]
     assert namespace["v"].verdict.verdict == "agree"
+
+
+def test_elements_md_has_the_table_formats_prints():
+    assert make_docs.block(make_docs.ELEMENTS_MD.read_text(), "elements") == make_docs.elements_blocks()["elements"], FIX

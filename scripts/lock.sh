@@ -22,5 +22,5 @@ lock() {  # lock EXTRAS FILE [MORE PACKAGES]
   } > "$2"
   echo "wrote $2 ($(grep -vc '^#' "$2") packages)"
 }
-lock test constraints.txt
+lock test,docs constraints.txt
 lock test,nastran,ansys constraints-extras.txt exudyn

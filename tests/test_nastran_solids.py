@@ -260,15 +260,15 @@ FLOAT32 = 2e-7  # the OP2 holds modes and eigenvalues in float32: sums of their 
 N_FLEX = 8
 
 
-@pytest.mark.parametrize("kind", list(CORNERS))
-def test_a_free_free_run_of_each_quadratic_solid_reads_with_its_mass_inertia_frequencies_and_checks(kind, tmp_path):
-    from ffrf_advisor.checks import run_checks
+def _free_free_op2(path, kind: str, counts=(4, 2, 1), gpwg_mass: float | None = None) -> np.ndarray:
+    """A free-free run of a quadratic ``kind`` box by the FE module (six rigid modes, N_FLEX flexible ones) as an
+    OP2 with its geometry, optionally with a weight generator's table of that mass; its flexible eigenvalues."""
     from ffrf_advisor.fe.assembly import stiffness_matrix
     from ffrf_advisor.fe.material import Material
     from ffrf_advisor.fe.modal import free_free_modes, rigid_modes
-    from ffrf_advisor.io import read_body
+    from pyNastran.op2.result_objects.grid_point_weight import GridPointWeight
 
-    points, cells = _corner_cells(kind, counts=(4, 2, 1))
+    points, cells = _corner_cells(kind, counts)
     points, nastran, vtk = _quadratic(kind, points, cells)
     mesh = Mesh(points, {QUADRATIC[kind]: np.array(vtk)})
     modal = free_free_modes(stiffness_matrix(mesh, Material("steel", E, NU, RHO)), mass_matrix(mesh, RHO), points,
@@ -276,17 +276,46 @@ def test_a_free_free_run_of_each_quadratic_solid_reads_with_its_mass_inertia_fre
     n = len(points)
     modes = np.zeros((6 + N_FLEX, n, 6))
     modes[:, :, :3] = np.concatenate([rigid_modes(points).reshape(n, 3, 6), modal.Phi], axis=2).transpose(2, 0, 1)
-    _write_op2(tmp_path / "part.op2", _model(points, nastran, kind), points, np.r_[np.zeros(6), modal.eigenvalues],
-               modes)
+    model = _model(points, nastran, kind)
+    if gpwg_mass is not None:
+        I = _box_inertia(gpwg_mass)
+        model.grid_point_weight[""] = GridPointWeight(
+            0, np.zeros((6, 6)), np.eye(3), np.full(3, gpwg_mass), np.tile(BOX / 2, (3, 1)), I, np.diag(I), np.eye(3))
+    _write_op2(path, model, points, np.r_[np.zeros(6), modal.eigenvalues], modes)
+    return modal.eigenvalues
+
+
+@pytest.mark.parametrize("kind", list(CORNERS))
+def test_a_free_free_run_of_each_quadratic_solid_reads_with_its_mass_inertia_frequencies_and_checks(kind, tmp_path):
+    from ffrf_advisor.checks import run_checks
+    from ffrf_advisor.io import read_body
+
+    eigenvalues = _free_free_op2(tmp_path / "part.op2", kind)
     body = read_body(tmp_path / "part.op2")
     exact = float(np.float32(RHO)) * BOX.prod()  # the OP2 holds RHO in float32, the grids exactly (binary fractions)
     assert body.mass == pytest.approx(exact, rel=ROUND)
     assert np.allclose(np.linalg.eigvalsh(body.I0), np.sort(np.diag(_box_inertia(exact))), rtol=ROUND)
-    assert np.allclose(body.eigenvalues, modal.eigenvalues, rtol=FLOAT32)
+    assert np.allclose(body.eigenvalues, eigenvalues, rtol=FLOAT32)
     checks = run_checks(body)
     assert all(c.passed for c in checks), [(c.name, c.value, c.tolerance) for c in checks if not c.passed]
     notes = " ".join(body.provenance.notes)
-    assert f"{len(nastran)} {kind}" in notes and "warning" not in notes
+    assert f"mass assembled from {len(_corner_cells(kind, (4, 2, 1))[1])} {kind}" in notes and "warning" not in notes
+
+
+def test_the_weight_generators_mass_in_the_op2_is_checked_and_a_different_one_ends_in_one_line(tmp_path):
+    from typer.testing import CliRunner
+
+    from ffrf_advisor.cli import app
+    from ffrf_advisor.io import read_body
+
+    exact = float(np.float32(RHO)) * BOX.prod()
+    _free_free_op2(tmp_path / "same.op2", "CHEXA", counts=(2, 1, 1), gpwg_mass=exact)
+    assert "grid point weight generator" in " ".join(read_body(tmp_path / "same.op2").provenance.notes)
+    _free_free_op2(tmp_path / "other.op2", "CHEXA", counts=(2, 1, 1), gpwg_mass=exact * 1.001)  # a mass Nastran had
+    result = CliRunner().invoke(app, ["info", str(tmp_path / "other.op2")])
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1, result.output
+    assert "other.op2: grid point weight generator (PARAM,GRDPNT): expected its mass to agree" in result.output
+    assert f"Nastran's {exact * 1.001:.7g} against {exact:.7g}" in result.output
 
 
 def test_a_deck_beside_the_op2_with_mirrored_wedges_reads_and_an_inverted_one_is_one_line(tmp_path):

@@ -319,3 +319,20 @@ def test_a_header_declaring_10_to_12_nodes_is_refused_before_allocating(small, t
     assert peak < 20 * path.stat().st_size  # the text and its lines, nothing of the declared size
     done = runner.invoke(app, ["info", str(path)])
     assert done.exit_code == 2 and len(done.output.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("token", ["true", "True", "'1.0'", "{1.0}", "nan", "inf"])
+def test_a_word_where_a_number_belongs_is_refused_by_name(small, tmp_path, token):
+    """Issue 49, part 4: a boolean, a quoted or nested number where the total mass belongs (group 12, the global
+    inertia) is refused naming the group and the value, never read as 1 (the .fem reader's NUMBER pattern
+    already held: a regression test)."""
+    _, text = small
+    a, _ = _groups(text)[12]
+    lines = text.splitlines()
+    values = lines[a].split()
+    lines[a] = " ".join([token, *values[1:]])
+    path = tmp_path / "typed.fem"
+    path.write_text("\n".join(lines) + "\n")
+    result = runner.invoke(app, ["info", str(path)])
+    out = result.output.strip().splitlines()
+    assert result.exit_code == 2 and len(out) == 1 and "record group 12 (global inertia)" in out[0] and token in out[0], out

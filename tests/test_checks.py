@@ -2,11 +2,16 @@
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
+import pytest
 
 from ffrf_advisor.body import ModalFE
-from ffrf_advisor.checks import check_values, run_checks
+from ffrf_advisor.checks import check_values, density_text, density_warnings, run_checks, solid_density
+from ffrf_advisor.fe.material import STEEL
+from ffrf_advisor.fe.mesh import box_mesh
+from ffrf_advisor.fe_body import modal_body
 from ffrf_advisor.invariants import shape_integrals
 
 
@@ -68,3 +73,78 @@ def test_eigenvalue_order_and_sign(block_body):
     lam = np.array(block_body.eigenvalues)
     lam[0] = -1.0
     assert "eigenvalue_order" in _failed(replace(block_body, eigenvalues=lam))
+
+
+# --- density and the bounding box (issue 49, part 2) ------------------------------------------------------------
+
+STEEL_KG_M3 = 7.85e-9 * 1e3 / 1e-9  # 7.85e-9 t/mm^3 in kg/m^3
+ROUND_OFF = 1e-9  # nodal sums of the consistent mass and the cells' volumes by exact quadrature
+
+
+def _heavier(body, factor):
+    """The body with its mass (all of Ms) multiplied: the same shape, a density in other units."""
+    fe = body.fe
+    return replace(body, integrals=shape_integrals(fe.mesh.points, fe.Ms * factor, fe.Phi / np.sqrt(factor)),
+                   fe=ModalFE(fe.mesh, fe.Ms * factor, fe.Phi / np.sqrt(factor), fe.K))
+
+
+def _mass_only(body, factor):
+    """Only the mass number multiplied (a damaged single copy), the second moments kept."""
+    return replace(body, integrals=replace(body.integrals, mass=body.integrals.mass * factor))
+
+
+def test_the_solid_density_of_a_block_is_its_material_s(block_body):
+    assert solid_density(block_body) == pytest.approx(STEEL_KG_M3, rel=ROUND_OFF)
+    assert density_text(block_body) == "density 7850 kg/m^3 (solid cells)" and density_warnings(block_body) == ()
+
+
+def test_a_density_in_kg_per_mm3_read_as_t_per_mm3_is_named(block_body):
+    (warning,) = density_warnings(_heavier(block_body, 1e3))
+    assert "outside engineering materials" in warning and "7.85e+06 kg/m^3" in warning
+    assert "a density in kg/mm^3 read as t/mm^3?" in warning
+
+
+def test_a_density_x2_stays_silent_but_shows_in_the_headline(block_body):
+    """Twice steel is a heavy alloy, not an impossible body: no warning, but the number is in the headline."""
+    assert density_warnings(_heavier(block_body, 2)) == ()
+    assert density_text(_heavier(block_body, 2)) == "density 1.57e+04 kg/m^3 (solid cells)"
+
+
+def test_a_mass_too_small_for_its_inertia_is_named(block_body):
+    """A tenth of the mass with the same inertia: the equivalent box grows by sqrt(10) > sqrt(3), which no mass
+    distribution inside the 300 x 70 x 40 mm bounding box allows; half of it (sqrt(2)) a hollow body could."""
+    light = density_warnings(_mass_only(block_body, 0.1))
+    assert any("too small for its inertia" in w and "bounding box 300 x 70 x 40 mm" in w for w in light), light
+    assert density_warnings(_mass_only(block_body, 0.5)) == ()
+
+
+def test_a_cached_compact_body_heavier_than_any_material_in_its_box_is_named():
+    """A 50 x 45 x 40 mm steel block read from its cache (no cells; the largest dimension only, a 50 mm cube):
+    five times its density (39,250 kg/m^3) is within the apparent density's range (below 1e5) but fills the cube
+    at 39,250 x 0.72 = 28,260 kg/m^3, beyond osmium's. (Unequal edges: a cube's principal axes are arbitrary.)"""
+    cube = modal_body(box_mesh([50.0, 45.0, 40.0], [2, 2, 2], "hexahedron"), STEEL, 6)
+    cached = lambda body: replace(body, fe=None, nodal=body.fe.summary())  # noqa: E731
+    assert density_warnings(cached(cube)) == ()
+    (warning,) = density_warnings(cached(_heavier(cube, 5)))
+    assert "does not fit the bounding box 50 x 50 x 50 mm: 2.826e+04 kg/m^3" in warning, warning
+
+
+def test_a_cached_body_is_held_to_its_largest_dimension(tmp_path):
+    from ffrf_advisor.io import read_body
+    beam = read_body(Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5", load_fe="summary")
+    assert beam.fe is None and density_warnings(beam) == ()
+    assert density_text(beam).startswith("apparent density 7850 kg/m^3")  # the beam is a solid box
+    assert any("too small for its inertia" in w for w in density_warnings(_mass_only(beam, 0.01)))
+
+
+def test_the_headlines_of_info_and_analyze_show_mass_and_density():
+    from typer.testing import CliRunner
+
+    from ffrf_advisor.cli import app
+    beam = str(Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5")
+    runner = CliRunner()
+    info = runner.invoke(app, ["info", beam], env={"COLUMNS": "200"})
+    analyze = runner.invoke(app, ["analyze", beam, "--speed", "300rad/s"], env={"COLUMNS": "200"})
+    assert info.exit_code == analyze.exit_code == 0
+    assert "mass      6.280000e-03 t; apparent density 7850 kg/m^3 (equivalent box)" in info.stdout
+    assert analyze.stdout.splitlines()[2] == "body: mass 0.00628 t, apparent density 7850 kg/m^3 (equivalent box)"

@@ -114,21 +114,110 @@ def _density(body: FlexibleBody, box: np.ndarray) -> float:
     return body.mass * float(MASS[u.mass]) / volume if volume > 0 else float("inf")
 
 
+ENGINEERING_DENSITY = (300.0, 23e3)  # kg/m^3: light wood and foamed polymers; above osmium (22,590)
+
+
+def solid_density(body: FlexibleBody) -> float | None:
+    """Mass over the volume of the solid cells [kg/m^3] (the material's density, plus any masses on nodes); None
+    without solid cells or where nodes carry rotary inertia (shells and beams hold mass outside the solids)."""
+    fe = body.fe
+    if fe is None or fe.rotary is not None or not fe.mesh.cells:
+        return None
+    from .stress_bound import solid_volume  # the FE toolkit: only where FE data are read
+    volume = solid_volume(fe.mesh)
+    return _per_m3(body, volume) if volume > 0 else None
+
+
+def _per_m3(body: FlexibleBody, volume: float) -> float:
+    """The body's mass over ``volume`` (body units) in kg/m^3."""
+    u = body.units
+    return body.mass * float(MASS[u.mass]) / (volume * float(LENGTH[u.length]) ** 3)
+
+
+def density_text(body: FlexibleBody) -> str:
+    """The density for a headline: over the solid cells' volume where known, else the apparent density."""
+    rho = solid_density(body)
+    if rho is None:
+        return f"apparent density {apparent_density(body):.4g} kg/m^3 (equivalent box)"
+    return f"density {rho:.4g} kg/m^3 (solid cells)"
+
+
 def density_warnings(body: FlexibleBody) -> tuple[str, ...]:
-    """A warning when the apparent density is outside PLAUSIBLE_DENSITY, naming the unit mix-up that would
-    give it (a density in kg/m^3 read as t/mm^3 is 10^12 too heavy)."""
+    """Warnings naming the likely cause when the density of the solids is outside ENGINEERING_DENSITY (without
+    solid cells: the apparent density outside PLAUSIBLE_DENSITY, else the mass more than the densest material
+    filling the bounding box), or the mass too small for its inertia within the bounding box."""
+    rho = solid_density(body)
+    first = _apparent_warning(body) if rho is None else _solid_warning(body, rho)
+    return first + (() if first else _overfilled(body)) + _underfilled(body)
+
+
+def _unit_guess(body: FlexibleBody, rho: float) -> str:
+    """The density unit that, read as the body's, would give ``rho`` from a steel-to-aluminium-like material."""
+    u = body.units
+    native = float(MASS[u.mass] / LENGTH[u.length] ** 3)
+    likely = [name for name, size in DENSITY_UNITS.items() if 300 <= rho * size / native <= 3e4 and size != native]
+    return f"; a density in {likely[0]} read as {u.mass}/{u.length}^3?" if likely else ""
+
+
+def _apparent_warning(body: FlexibleBody) -> tuple[str, ...]:
     box = body.equivalent_box()
     rho = _density(body, box)
     if PLAUSIBLE_DENSITY[0] <= rho <= PLAUSIBLE_DENSITY[1]:
         return ()
     u = body.units
-    read_as = f"{u.mass}/{u.length}^3"
-    native = float(MASS[u.mass] / LENGTH[u.length] ** 3)
-    likely = [name for name, size in DENSITY_UNITS.items() if 300 <= rho * size / native <= 3e4 and size != native]
-    guess = f"; a density in {likely[0]} read as {read_as}?" if likely else ""
     return (f"implausible density: mass {body.mass:.4g} {u.mass} in its equivalent solid box of "
             f"{' x '.join(f'{e:.3g}' for e in box)} {u.length} is {rho:.3g} kg/m^3, outside "
-            f"{PLAUSIBLE_DENSITY[0]:g}-{PLAUSIBLE_DENSITY[1]:g} kg/m^3 (units {u}){guess}",)
+            f"{PLAUSIBLE_DENSITY[0]:g}-{PLAUSIBLE_DENSITY[1]:g} kg/m^3 (units {u}){_unit_guess(body, rho)}",)
+
+
+def _solid_warning(body: FlexibleBody, rho: float) -> tuple[str, ...]:
+    if ENGINEERING_DENSITY[0] <= rho <= ENGINEERING_DENSITY[1]:
+        return ()
+    return (f"density of the solids outside engineering materials: mass {body.mass:.4g} {body.units.mass} over the "
+            f"solid cells' volume is {rho:.4g} kg/m^3, outside {ENGINEERING_DENSITY[0]:g}-"
+            f"{ENGINEERING_DENSITY[1]:g} kg/m^3: a density in other units{_unit_guess(body, rho)}, a damaged "
+            "density or mass, or point masses heavier than the solids",)
+
+
+def _overfilled(body: FlexibleBody) -> tuple[str, ...]:
+    """The mass is at most the densest material filling the bounding box B of the nodes (``_extents``)."""
+    B = _extents(body)
+    volume = 0.0 if B is None else float(np.prod(B))
+    rho = _per_m3(body, volume) if volume > 0 else 0.0
+    if rho <= ENGINEERING_DENSITY[1]:
+        return ()
+    u = body.units
+    return (f"mass {body.mass:.4g} {u.mass} does not fit the bounding box {_dims(B)} {u.length}: {rho:.4g} kg/m^3 "
+            f"filling it, denser than any material{_unit_guess(body, rho)} (or a damaged mass)",)
+
+
+def _underfilled(body: FlexibleBody) -> tuple[str, ...]:
+    """The equivalent box of mass and inertia is at most sqrt(3) B per axis: a mass on an interval of width B has
+    a variance of at most B^2 / 4 (Popoviciu), a box's is its width^2 / 12."""
+    B = _extents(body)
+    e = body.equivalent_box()
+    if B is None or not np.any(np.sort(e) > np.sqrt(3) * np.sort(B) + 1e-9 * B.max()):  # 1e-9: round-off of I
+        return ()
+    u = body.units
+    return (f"mass {body.mass:.4g} {u.mass} too small for its inertia I0: its equivalent solid box {_dims(e)} "
+            f"{u.length} cannot lie in the bounding box {_dims(B)} {u.length} (a damaged mass or I0, or mass and "
+            "inertia in different units)",)
+
+
+def _extents(body: FlexibleBody) -> np.ndarray | None:
+    """Extents of the nodes' bounding box in the body's (principal) frame; a cube of the largest dimension where
+    only that is cached; None without nodes or where shells' and beams' mass reaches beyond their nodes."""
+    if body.integrals.rotary is not None:
+        return None
+    if body.fe is not None:
+        lo, hi = body.fe.mesh.bounding_box()
+        return hi - lo
+    summary = body.nodal_summary()
+    return None if summary is None else np.full(3, summary.largest_dimension)
+
+
+def _dims(a: np.ndarray) -> str:
+    return " x ".join(f"{x:.3g}" for x in a)
 
 
 def check_warnings(checks: list[Check]) -> tuple[str, ...]:

@@ -14,7 +14,7 @@ from rich.text import Text
 from ..adequacy import summary as basis_summary
 from ..body import FlexibleBody
 from ..guidelines import softening_situations
-from ..checks import Check, density_warnings
+from ..checks import Check, density_text, density_warnings
 from ..predict import KINDS, MARGIN, level_of
 from ..sim.cost import cost_ratio
 from ..terms import lagrangian_status
@@ -50,7 +50,7 @@ def body_summary(console: Console, body: FlexibleBody, checks: list[Check]) -> N
         console.print(f"  {shown(note)}")
     if len(notes) > SHOWN_NOTES:
         console.print(f"  ... {len(notes) - SHOWN_NOTES} more notes")
-    console.print(f"mass      {body.mass:.6e} {u.mass}")
+    console.print(f"mass      {body.mass:.6e} {u.mass}; {density_text(body)}", highlight=False)
     console.print(f"CoM       [{', '.join(f'{x:.4e}' for x in body.com)}] {u.length}")
     offset = next((c for c in checks if c.name == "com_offset"), None)
     if offset is not None and offset.passed:
@@ -102,6 +102,7 @@ def analysis_summary(console: Console, a, warnings: Console | None = None, modes
     console.print(f"[bold]{shown(b.name)}[/bold]: level [bold]{adv.level}[/bold]   terms: {', '.join(adv.terms)}"
                   + _lagrangian(adv, b.nf))
     console.print(f"operating point: {adv.operating_point}", highlight=False)
+    console.print(f"body: mass {b.mass:.4g} {u.mass}, {density_text(b)}", highlight=False)
     console.print(f"decided by: {adv.decided_by}", highlight=False)
     if modes:
         console.print(f"mode set: {modes}", highlight=False)

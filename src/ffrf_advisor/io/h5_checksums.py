@@ -2,12 +2,12 @@
 
 Every dataset carries HDF5's Fletcher-32 checksum per chunk, which the HDF5
 library verifies on every read. What it does not cover, the attributes, and
-what ties the caches to the data they came from, are two SHA-256 digests in
-the attributes of ``/checksums``:
+what ties the caches to the data they came from, are SHA-256 digests in the
+attributes of ``/checksums``:
 
 - ``nodal_sha256``: of the nodal data the caches are computed from
   (``NODAL``: mesh points, mass matrix, modes, rotary nodes), each dataset's
-  values as float64 or int64 (``digest_of``), compared wherever a reader
+  values as float64 or int64 (``canonical``), compared wherever a reader
   reads those data anyway (never on the cached path, which would defeat the
   cache);
 - ``attributes_sha256``, ``invariants_sha256``, ``nodal_summary_sha256``

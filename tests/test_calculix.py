@@ -301,3 +301,114 @@ def test_hexahedra_whose_mass_calculix_makes_otherwise_are_refused_without_the_m
     expected = rf"r\.frd: 3C: expected .*SOLVER=MATRIXSTORAGE.*got {name} \(CalculiX {why}"
     with pytest.raises(BodyFileError, match=expected):
         read_body(tmp_path / "r.frd")
+
+
+def _damaged(jobs, tmp_path, suffix: str, edit, job: str = "ascii") -> Path:
+    """A copy d.frd, d.dat, d.inp of a run with ``edit`` applied to the text of the file with ``suffix``."""
+    for s in (".frd", ".dat", ".inp"):
+        shutil.copy(jobs[job].with_suffix(s), tmp_path / f"d{s}")
+    target = tmp_path / f"d{suffix}"
+    target.write_bytes(edit(target.read_bytes()))
+    return tmp_path / "d.frd"
+
+
+def _gate(frd: Path, level: str = "I"):
+    from typer.testing import CliRunner
+    from ffrf_advisor.cli import app
+    return CliRunner().invoke(app, ["gate", str(frd), "--speed", "30rad/s", "--max-level", level])
+
+
+def _analyze(frd: Path):
+    from typer.testing import CliRunner
+    from ffrf_advisor.cli import app
+    return CliRunner().invoke(app, ["analyze", str(frd), "--speed", "30rad/s"])
+
+
+def _one_line(result, *names: str) -> None:
+    assert result.exit_code == 2, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.output, result.output
+    assert all(name in lines[0] for name in names), lines[0]
+
+
+def _dat_row(data: bytes, mode: int) -> tuple[int, bytes]:
+    """Offset and text of mode ``mode``'s row of the .dat's eigenvalue table."""
+    at = data.index(b"E I G E N V A L U E")
+    start = data.index(f"\n{mode:7d}  ".encode(), at) + 1
+    return start, data[start:data.index(b"\n", start)]
+
+
+def test_a_damaged_dat_exponent_is_refused_not_read_as_rigid_modes(jobs, tmp_path):
+    """Issue 49: one exponent digit of one .dat eigenvalue (E+09 -> E+81) made every smaller one 'rigid': level I,
+    the gate passed. The row's frequency columns (and the .frd's frequency) disagree with it: exit 2 naming it."""
+    clean = _gate(_damaged(jobs, tmp_path, ".dat", lambda b: b))
+    assert clean.exit_code == 1, clean.output  # the clean body is above level I at 30 rad/s
+
+    def exponent(data: bytes) -> bytes:
+        start, row = _dat_row(data, 8)
+        words = row.split()
+        return data[:start] + row.replace(words[1], words[1][:-2] + b"81", 1) + data[start + len(row):]
+    damaged = _damaged(jobs, tmp_path, ".dat", exponent)
+    assert _gate(damaged).exit_code == 2
+    _one_line(_analyze(damaged), "d.dat", "EIGENVALUE OUTPUT", "mode 8")
+
+
+@pytest.mark.parametrize("factor, refused", [(1.001, True), (1 + 1e-9, False)])
+def test_frd_frequencies_are_checked_against_the_dat_eigenvalues(jobs, tmp_path, factor, refused):
+    """Both files carry each mode's frequency: the .frd's (every block header of mode 9) x1.001 is beyond both
+    files' print precision (6 and 7 digits) and refused naming both; x(1 + 1e-9) is below it and reads."""
+    def scaled(data: bytes) -> bytes:
+        lines = data.split(b"\n")
+        for k, line in enumerate(lines):
+            if line.startswith(b"  100C") and line[58:63] == b"    9":
+                lines[k] = line[:12] + f"{float(line[12:24]) * factor:12.6f}".encode() + line[24:]
+        return b"\n".join(lines)
+    result = _analyze(_damaged(jobs, tmp_path, ".frd", scaled))
+    if refused:
+        _one_line(result, "d.dat", "d.frd", "mode 9")
+    else:
+        assert result.exit_code == 0, result.output
+
+
+KEY = b"1PMODE                         2"
+
+
+@pytest.mark.parametrize("job", ["ascii", "binary"])
+@pytest.mark.parametrize("old, new", [(KEY, b"6" + KEY[1:]), (KEY, KEY[:-1] + b"3"), (b"    2MODAL", b"    3MODAL")])
+def test_a_damaged_frd_mode_key_is_refused(jobs, tmp_path, job, old, new):
+    """Issue 49: one byte of a '1PMODE' line ('6PMODE') skipped its block and filed the modes under wrong numbers
+    (--rules paper went II -> I). The key line and the block header's mode number must agree: exit 2."""
+    _one_line(_analyze(_damaged(jobs, tmp_path, ".frd", lambda b: b.replace(old, new, 1), job)), "d.frd", "1PMODE")
+
+
+def test_a_rigid_shape_with_a_flexible_frequency_is_refused(jobs, tmp_path):
+    """Rigid modes are told by their shape, not by the eigenvalue's size: without the .dat, mode 3 (a rigid motion)
+    given a 2 kHz frequency in every header of the .frd is refused; before, it was read as a flexible mode."""
+    def rigid_at_2khz(data: bytes) -> bytes:
+        lines = data.split(b"\n")
+        for k, line in enumerate(lines):
+            if line.startswith(b"  100C") and line[58:63] == b"    3":
+                lines[k] = line[:12] + b" 2000.000000" + line[24:]
+        return b"\n".join(lines)
+    frd = _damaged(jobs, tmp_path, ".frd", rigid_at_2khz)
+    (tmp_path / "d.dat").unlink()
+    _one_line(_analyze(frd), "d.frd", "mode 3")
+
+
+def test_a_flexible_mode_at_zero_frequency_is_dropped_and_named(jobs, tmp_path):
+    """Without the .dat, modes 7 and 8 at zero frequency (every header of the .frd) are no rigid motions: they were
+    dropped as 'rigid' silently; now dropped with a warning naming them (a mechanism) and the rigid count stays 6."""
+    def zero(data: bytes) -> bytes:
+        lines = data.split(b"\n")
+        for k, line in enumerate(lines):
+            if line.startswith(b"  100C") and line[58:63] in (b"    7", b"    8"):
+                lines[k] = line[:12] + b" 0.00000E+00" + line[24:]
+        return b"\n".join(lines)
+    frd = _damaged(jobs, tmp_path, ".frd", zero)
+    (tmp_path / "d.dat").unlink()
+    body = read_body(frd)
+    assert body.nf == NF - 2
+    warnings = [n for n in body.provenance.notes if n.startswith("warning")]
+    assert any("modes 7, 8 dropped" in n and "mechanism" in n for n in warnings), body.provenance.notes
+    assert any("rigid modes (shapes spanned by rigid motions) dropped: 1, 2, 3, 4, 5, 6" in n
+               for n in body.provenance.notes)

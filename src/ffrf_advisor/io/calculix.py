@@ -10,8 +10,9 @@ assembled from the mesh and the ``*DENSITY`` of the deck (.inp) with the
 deck's point masses (calculix_mass); the stiffness K from .sti with the
 .mas. Shells and beams are read as CalculiX's expanded 3D elements (its
 default output). A free-free body's total mass is checked against the .dat's
-effective-mass total. Rigid modes (near-zero eigenvalues) are dropped; a
-count other than six is reported in the provenance notes.
+effective-mass total. The eigenvalues are checked against every copy the run
+wrote and rigid modes are told by their shape (calculix_modes): dropped, and a
+count other than six is a warning naming them.
 """
 from __future__ import annotations
 
@@ -29,6 +30,7 @@ from ..fe.stress import von_mises
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from .calculix_deck import Deck, deck_density, deck_material, read_deck, text_lines, write_deck  # noqa: F401
 from .calculix_frd import ASCII_DIGITS, NAMES, SOLIDS, Frd
+from .calculix_modes import dat_eigenvalues as _dat_eigenvalues, eigenvalues, rigid_by_shape  # noqa: F401
 from .calculix_mass import (carried_masses, check_modal_masses, check_total_mass, refuse_rotary_inertia,
                             stored_matrices, with_point_masses)
 
@@ -37,7 +39,6 @@ from .calculix_mass import (carried_masses, check_modal_masses, check_total_mass
 UNCARRIED = {"C3D8R": "integrates its mass at one point", "C3D8I": "gives its incompatible modes mass"}
 EXPANDED = {"S3": "C3D6", "S6": "C3D15", "S4": "C3D8I", "S4R": "C3D8R", "S8": "C3D20", "S8R": "C3D20R",
             "B31": "C3D8I", "B31R": "C3D8R", "B32": "C3D20", "B32R": "C3D20R"}  # CalculiX 2.20's 3D form of each
-RIGID_TOL = 1e-6  # |lambda| / largest |lambda| below which a mode is rigid
 N_RIGID = 6
 
 
@@ -54,23 +55,6 @@ def _tensor(v: np.ndarray) -> np.ndarray:
     """Symmetric tensors (n, 3, 3) from CalculiX components SXX SYY SZZ SXY SYZ SZX."""
     xx, yy, zz, xy, yz, zx = v[:, :6].T
     return np.stack([np.stack([xx, xy, zx], -1), np.stack([xy, yy, yz], -1), np.stack([zx, yz, zz], -1)], -2)
-
-
-def _dat_eigenvalues(path: Path) -> np.ndarray | None:
-    """The eigenvalue column of the .dat table 'E I G E N V A L U E   O U T P U T', or None."""
-    if not path.is_file():
-        return None
-    lines = text_lines(path)
-    if not any("E I G E N V A L U E   O U T P U T" in line for line in lines):
-        return None
-    values = []
-    for line in lines:
-        parts = line.split()
-        if values and not parts:
-            break
-        if len(parts) >= 2 and parts[0].isdigit():
-            values.append(float(parts[1]))
-    return np.array(values)
 
 
 def _precise_points(frd: Frd, deck: Deck | None) -> tuple[np.ndarray, str | None]:
@@ -153,15 +137,10 @@ def _modes(frd: Frd, index: dict, stem: Path):
     modes = sorted(m for m, name in frd.results if name == "DISP")
     if not modes:
         frd.fail("DISP", "mode shapes (*NODE FILE or *NODE OUTPUT with U)", "none")
-    lam = _dat_eigenvalues(stem.with_suffix(".dat"))
-    source = "eigenvalues from .dat (7 digits)"
-    if lam is not None and len(lam) != max(modes):
-        raise BodyFileError(stem.with_suffix(".dat"), "eigenvalues", f"as many as the modes of {frd.path.name} "
-                            f"({max(modes)})", f"{len(lam)} (a cut .frd or another run's .dat)")
-    if lam is None:
-        lam = (2 * np.pi * np.array([frd.frequencies[m] for m in modes])) ** 2
-        source = "eigenvalues from .frd frequencies (6 digits)"
-    lam = lam[np.array(modes) - 1]
+    if modes != list(range(1, len(modes) + 1)):
+        frd.fail("DISP", "the shapes of modes 1, 2, 3 ... (mode numbers consecutive and unique)",
+                 f"modes {', '.join(map(str, modes[:12]))}")
+    lam, source = eigenvalues(frd, modes, stem.with_suffix(".dat"))
     Phi = np.stack([_nodal(frd, index, *frd.results[(m, "DISP")], "DISP")[:, :3] for m in modes], axis=-1)
     stress = None
     if all((m, "STRESS") in frd.results for m in modes):
@@ -205,18 +184,16 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     cells = _solid_cells(frd, deck, index)
     points, from_deck = _precise_points(frd, deck)
     modes, lam, source, Phi, stress = _modes(frd, index, stem)
-    rigid = np.abs(lam) < RIGID_TOL * np.abs(lam).max()
+    rigid, rigid_notes = rigid_by_shape(frd.nodes, Phi, lam, modes, frd.path)
     notes = [f"CalculiX {Path(path).name}: {len(modes)} modes, {int(rigid.sum())} rigid dropped; {source}"]
-    notes += [n for n in (from_deck, _expanded(frd, deck)) if n]
-    if rigid.sum() != N_RIGID:
-        notes.append(f"warning: {int(rigid.sum())} rigid modes instead of six: the body is "
-                     + ("constrained" if rigid.sum() < N_RIGID else "not connected (a mechanism)"))
+    notes += [n for n in (from_deck, _expanded(frd, deck)) if n] + rigid_notes
+    free_free = rigid.sum() == N_RIGID and not any(n.startswith("warning") for n in rigid_notes)
     flex = ~rigid
     if not flex.any():
         frd.fail("DISP", "at least one flexible mode", "only rigid modes")
     Ms, K, mesh, Phi, stress, mass_notes = _mass(frd, deck, Mesh(points, cells), Phi, stress, index, stem)
     notes += mass_notes
-    if rigid.sum() == N_RIGID:
+    if free_free:
         total = check_total_mass(stem.with_suffix(".dat"), float(Ms.sum()), mass_notes[0], deck)
         notes += [total] if total else []
     Phi_n, stress, scale = mass_normalised_file_modes(Ms, Phi[:, :, flex],
@@ -229,7 +206,7 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     body = fe_body(Path(path).name.split(".")[0], mesh, Ms, Phi_n, lam[flex],
                    Provenance(source=str(path), mass_matrix="consistent", notes=tuple(notes), digits=frd.digits),
                    K, stress, material)
-    return body if material is None or rigid.sum() != N_RIGID else with_centrifugal_response(body)
+    return body if material is None or not free_free else with_centrifugal_response(body)
 
 
 def _deck_material_for(deck: Deck | None, mesh: Mesh):

@@ -207,12 +207,26 @@ class Frd:
             nodes += [self._int(t, "3C element nodes") for t in line[3:].split()]
         return self._int(words[1], "3C element number"), kind, nodes
 
+    def _mode_of(self, header: str) -> int:
+        """The mode a result block belongs to: in a frequency step (analysis type MODAL) the header's step number,
+        which the '1PMODE' line before the block must repeat (one damaged byte of either is an error, never a
+        block filed under another mode); the last '1PMODE' otherwise."""
+        if header[63:73].strip() != "MODAL":
+            return self.mode
+        step = self._int(header[58:63], "100C mode number")
+        if self.mode != step:
+            self.fail("1PMODE", f"the line '1PMODE {step}' before the result block of mode {step} (its 100C header)",
+                      f"mode {self.mode}" if self.mode else "none")
+        self.mode = 0  # each block of a frequency step has its own '1PMODE' line
+        return step
+
     def _result(self, header: str) -> None:
         try:
             frequency = float(header[12:24])
             count = int(header[24:36])
         except ValueError:
             self.fail("100C", "a result header with value and node count", repr(header[:40]))
+        mode = self._mode_of(header)
         fmt = self._int(header.split()[-1], "100C format")
         if not 0 <= count <= MAX_COUNT:
             self.fail("100C", f"a node count up to {MAX_COUNT}", str(count))
@@ -230,5 +244,8 @@ class Frd:
             self.digits = min(self.digits, ASCII_DIGITS)
         if not np.all(np.isfinite(values)):
             self.fail(name or "100C", "finite values", "NaN or infinity")
-        self.frequencies[self.mode] = frequency
-        self.results[(self.mode, name)] = (ids, values)
+        if (mode, name) in self.results or self.frequencies.get(mode, frequency) != frequency:
+            self.fail("100C", f"one {name} block of mode {mode}, every block of a mode with the same frequency",
+                      f"a second {name} block or another frequency ({frequency:.7g})")
+        self.frequencies[mode] = frequency
+        self.results[(mode, name)] = (ids, values)

@@ -1,0 +1,139 @@
+"""CalculiX eigenvalues checked against every copy the run wrote, and rigid modes told by their shape.
+
+A frequency step writes each eigenvalue three times: the .dat's EIGENVALUE column, its frequency columns
+(omega = sqrt(lambda) for lambda >= 0, else the imaginary part sqrt(-lambda); f = omega / 2 pi) and the
+.frd's result-block header (f). One damaged digit in one copy is an error naming both places, never a
+changed body.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import BodyFileError
+from ..fe.modal import N_RIGID, rigid_modes
+from .calculix_deck import text_lines
+
+TITLE = "E I G E N V A L U E   O U T P U T"
+DAT_DIGITS = 7  # E14.7 columns of the .dat
+FRD_DIGITS = 6  # the .frd header prints f with at least 6 significant digits (E12.5, or more for f >= 1000)
+# A rigid mode's part outside the rigid motions is the print round-off of its components (measured 1.3e-6 at
+# 6 digits, 2.6e-8 in a binary .frd's float32); a flexible mode's is of order one (0.94-1.0 on a beam): the
+# threshold sits between them with three decades either side.
+RIGID_SHAPE = 1e-3
+ZERO = 1e-6  # |lambda| / largest |lambda| below which a frequency is zero to a 7-digit print of the largest
+
+
+def _row(path: Path, parts: list[str]) -> list[float]:
+    try:
+        values = [float(p) for p in parts[1:5]]
+    except ValueError:
+        raise BodyFileError(path, "EIGENVALUE OUTPUT", "numbers in E14.7 columns", repr(" ".join(parts)[:60]))
+    if len(values) < 4 or not np.all(np.isfinite(values)):
+        raise BodyFileError(path, "EIGENVALUE OUTPUT", "a mode number and four finite numbers per row",
+                            repr(" ".join(parts)[:60]))
+    return values
+
+
+def dat_table(path: Path) -> np.ndarray | None:
+    """Rows (lambda, omega, f, imaginary omega) of the .dat's first eigenvalue table, or None; the mode
+    numbers must count 1, 2, 3 ... and each row's frequencies must be its eigenvalue's (to 7 digits)."""
+    if not path.is_file():
+        return None
+    lines = list(text_lines(path))
+    start = next((k for k, line in enumerate(lines) if TITLE in line), None)
+    if start is None:
+        return None
+    rows = []
+    for line in lines[start + 1:]:
+        parts = line.split()
+        if rows and not parts:
+            break
+        if parts and parts[0].isdigit():
+            if int(parts[0]) != len(rows) + 1:
+                raise BodyFileError(path, "EIGENVALUE OUTPUT", f"mode {len(rows) + 1} in row {len(rows) + 1} "
+                                    "(mode numbers consecutive and unique)", f"mode {parts[0]}")
+            rows.append(_row(path, parts))
+    table = np.array(rows).reshape(-1, 4)
+    _check_row_frequencies(path, table)
+    return table
+
+
+def _check_row_frequencies(path: Path, table: np.ndarray) -> None:
+    """lambda = omega^2 (or -omega_imag^2) and f = omega / 2 pi on every row, to the .dat's 7 digits."""
+    lam, omega, f, imag = table.T
+    from_lam = np.sqrt(np.abs(lam))
+    tol = 10.0 ** (1 - DAT_DIGITS)  # two 7-digit roundings, relative
+    shown = np.where(lam >= 0, omega, imag)
+    bad = (np.abs(shown - from_lam) > tol * from_lam) | (np.abs(2 * np.pi * f - omega) > tol * omega)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise BodyFileError(path, "EIGENVALUE OUTPUT", f"mode {k + 1}'s frequency columns equal to its eigenvalue's "
+                            "to 7 digits", f"eigenvalue {lam[k]:.7g} with omega {shown[k]:.7g} rad/time, "
+                            f"f {f[k]:.7g} cycles/time")
+
+
+def dat_eigenvalues(path: Path) -> np.ndarray | None:
+    """The eigenvalue column of the .dat's table 'E I G E N V A L U E   O U T P U T', or None."""
+    table = dat_table(path)
+    return None if table is None else table[:, 0]
+
+
+def eigenvalues(frd, modes: list[int], dat: Path) -> tuple[np.ndarray, str]:
+    """Eigenvalues of ``modes`` with their source: the .dat's (7 digits) where it is beside the .frd, checked
+    against the .frd's frequencies f = sqrt(max(lambda, 0)) / 2 pi to 6 digits; else the .frd's."""
+    f_frd = np.array([frd.frequencies[m] for m in modes])
+    table = dat_table(dat)
+    if table is None:
+        return _ascending(frd.path, (2 * np.pi * f_frd) ** 2, modes), "eigenvalues from .frd frequencies (6 digits)"
+    if len(table) != max(modes):
+        raise BodyFileError(dat, "eigenvalues", f"as many as the modes of {frd.path.name} ({max(modes)})",
+                            f"{len(table)} (a cut .frd or another run's .dat)")
+    lam = table[np.array(modes) - 1, 0]
+    f_dat = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
+    floor = 10.0 ** -DAT_DIGITS * f_dat.max()  # a zero frequency prints as 0 in one file, as round-off in the other
+    off = np.abs(f_frd - f_dat) > 10.0 ** (1 - FRD_DIGITS) * np.maximum(f_frd, f_dat) + floor
+    if off.any():
+        k = int(np.argmax(off))
+        raise BodyFileError(dat, "EIGENVALUE OUTPUT", f"mode {modes[k]}'s eigenvalue giving the frequency of "
+                            f"{frd.path.name} ({f_frd[k]:.7g} cycles/time) to its 6 digits",
+                            f"{lam[k]:.7g} (f {f_dat[k]:.7g}): one of the two files is damaged or of another run")
+    return _ascending(dat, lam, modes), "eigenvalues from .dat (7 digits), checked against the .frd's frequencies"
+
+
+def _ascending(path, lam: np.ndarray, modes: list[int]) -> np.ndarray:
+    """CalculiX writes the eigenvalues in ascending order: one out of it (a damaged exponent) is an error."""
+    floor = ZERO * np.abs(lam).max()  # zero frequencies (rigid modes) come in any order of their round-off
+    down = np.flatnonzero(np.diff(lam) < -floor)
+    if down.size:
+        k = int(down[0])
+        raise BodyFileError(path, "eigenvalues", "eigenvalues in ascending order, as CalculiX writes them",
+                            f"mode {modes[k]}: {lam[k]:.7g} before mode {modes[k + 1]}: {lam[k + 1]:.7g}")
+    return lam
+
+
+def rigid_by_shape(points: np.ndarray, Phi: np.ndarray, lam: np.ndarray, modes: list[int], path) -> tuple:
+    """Modes to drop (mask) and notes. A mode is rigid when its shape lies in the span of the six rigid motions
+    of the nodes (theory 4: part outside below RIGID_SHAPE), never by its eigenvalue alone; a rigid shape with a
+    frequency that is not zero is an error; a zero frequency of a shape that is not rigid (a mechanism) is
+    dropped with a warning naming it; a count of rigid modes other than six is a warning naming them."""
+    R = rigid_modes((points - points.mean(axis=0)) / max(float(np.ptp(points, axis=0).max()), 1e-300))
+    S = Phi.reshape(-1, Phi.shape[2])
+    coef, *_ = np.linalg.lstsq(R, S, rcond=None)
+    outside = np.linalg.norm(S - R @ coef, axis=0) / np.maximum(np.linalg.norm(S, axis=0), 1e-300)
+    rigid, zero = outside < RIGID_SHAPE, np.abs(lam) < ZERO * np.abs(lam).max()
+    if np.any(rigid & ~zero):
+        k = int(np.argmax(rigid & ~zero))
+        raise BodyFileError(path, "DISP", f"mode {modes[k]} with a rigid-body shape to have a zero frequency",
+                            f"eigenvalue {lam[k]:.7g} (the shape or the eigenvalue is damaged)")
+    named = ", ".join(str(modes[k]) for k in np.flatnonzero(rigid)) or "none"
+    notes = [f"rigid modes (shapes spanned by rigid motions) dropped: {named}"]
+    if rigid.sum() != N_RIGID:
+        notes.append(f"warning: {int(rigid.sum())} rigid modes instead of six (modes {named}): the body is "
+                     + ("constrained" if rigid.sum() < N_RIGID else "not connected (a mechanism)"))
+    mechanism = zero & ~rigid
+    if mechanism.any():
+        notes.append(f"warning: modes {', '.join(str(modes[k]) for k in np.flatnonzero(mechanism))} dropped: zero "
+                     "frequency but not a rigid motion of the whole body (a mechanism: parts not connected)")
+    return rigid | mechanism, notes

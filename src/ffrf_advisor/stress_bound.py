@@ -42,10 +42,16 @@ def inverse_constant(name: str) -> float:
     return float(w.sum() * np.max(np.einsum("ni,ni->n", values, values)))
 
 
+def holding(mesh: Mesh, nodes) -> dict[str, np.ndarray]:
+    """The solid cells of ``mesh`` that hold any of ``nodes``, by cell type (types without any left out)."""
+    cells = {name: conn[np.isin(conn, nodes).any(axis=1)] for name, conn in mesh.cells.items()
+             if name in ELEMENT_TYPES}
+    return {name: conn for name, conn in cells.items() if len(conn)}
+
+
 def around(mesh: Mesh, node: int) -> tuple[Mesh, np.ndarray]:
     """The solid cells that hold ``node`` as a mesh of their own nodes, and those nodes' indices in ``mesh``."""
-    cells = {name: conn[(conn == node).any(axis=1)] for name, conn in mesh.cells.items() if name in ELEMENT_TYPES}
-    cells = {name: conn for name, conn in cells.items() if len(conn)}
+    cells = holding(mesh, [node])
     nodes = np.unique(np.concatenate([c.ravel() for c in cells.values()])) if cells else np.array([node])
     return Mesh(mesh.points[nodes], {name: np.searchsorted(nodes, c) for name, c in cells.items()}), nodes
 
@@ -92,8 +98,9 @@ def peak_stress(fe: ModalFE, eigenvalues: np.ndarray) -> PeakStress | None:
     sigma = fe.stress_nodal[node, np.arange(nf)]
     energy = 3 * fe.material.E * np.clip(eigenvalues, 0, None) / (2 * (1 + fe.material.nu))  # >= int s_vm^2
     bound, recomputed = np.full(nf, np.inf), np.full(nf, np.nan)
+    peaks = Mesh(fe.mesh.points, holding(fe.mesh, node))  # one pass over the cells; then only theirs per mode
     for p in range(nf):
-        local, nodes = around(fe.mesh, int(node[p]))
+        local, nodes = around(peaks, int(node[p]))
         if local.cells:
             bound[p] = np.sqrt(capacity(local) * energy[p])
             at = int(np.searchsorted(nodes, node[p]))

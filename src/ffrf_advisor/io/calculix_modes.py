@@ -116,8 +116,8 @@ def _ascending(path, lam: np.ndarray, modes: list[int]) -> np.ndarray:
 def rigid_by_shape(points: np.ndarray, Phi: np.ndarray, lam: np.ndarray, modes: list[int], path) -> tuple:
     """Modes to drop (mask) and notes. A mode is rigid when its shape lies in the span of the six rigid motions
     of the nodes (theory 4: part outside below RIGID_SHAPE), never by its eigenvalue alone; a rigid shape with a
-    frequency that is not zero is an error; a zero frequency of a shape that is not rigid (a mechanism) is
-    dropped with a warning naming it; a count of rigid modes other than six is a warning naming them."""
+    frequency that is not zero and a zero frequency of a shape that is not rigid (a mechanism) are errors; a count
+    of rigid modes other than six is a warning naming them."""
     R = rigid_modes((points - points.mean(axis=0)) / max(float(np.ptp(points, axis=0).max()), 1e-300))
     S = Phi.reshape(-1, Phi.shape[2])
     coef, *_ = np.linalg.lstsq(R, S, rcond=None)
@@ -132,8 +132,9 @@ def rigid_by_shape(points: np.ndarray, Phi: np.ndarray, lam: np.ndarray, modes: 
     if rigid.sum() != N_RIGID:
         notes.append(f"warning: {int(rigid.sum())} rigid modes instead of six (modes {named}): the body is "
                      + ("constrained" if rigid.sum() < N_RIGID else "not connected (a mechanism)"))
-    mechanism = zero & ~rigid
-    if mechanism.any():
-        notes.append(f"warning: modes {', '.join(str(modes[k]) for k in np.flatnonzero(mechanism))} dropped: zero "
-                     "frequency but not a rigid motion of the whole body (a mechanism: parts not connected)")
-    return rigid | mechanism, notes
+    mechanism = np.flatnonzero(zero & ~rigid)
+    if mechanism.size:
+        raise BodyFileError(path, "DISP", "modes at zero frequency to be rigid motions of the whole body",
+                            f"modes {', '.join(str(modes[k]) for k in mechanism)} with zero frequency and shapes that "
+                            "are not (a mechanism: parts not connected; or a damaged frequency)")
+    return rigid, notes

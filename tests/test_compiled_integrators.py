@@ -244,14 +244,14 @@ def test_the_first_simulation_after_installing_says_it_compiles_on_a_terminal(tm
 def test_compiling_ahead_gives_the_signatures_the_runs_use(beam):
     """integrate.compile_ahead compiles each integrator for the argument types its runs pass: after it, a run of
     each adds no second signature (else the tests' workers would compile ahead in vain, conftest.py)."""
-    from ffrf_advisor.sim import dop853, midpoint
+    from ffrf_advisor.sim import dop853, lawson, midpoint, rk4
     integ.compile_ahead(integ.COMPILED)
     _, model = beam
     y0 = initial_state(model, (0.0, 0.0, 30.0), np.full(model.nf, 1e-4))
-    for method in ("rk4", "rk4-lie", "dop853", "midpoint"):
-        integrate(model, y0, 1e-4, method, step=None if method == "dop853" else 1e-5, progress=lambda _: None)
-    dispatchers = (kernels.rk4_loop, dop853.integrate_dop853, midpoint.midpoint_loop)
-    assert [len(d.signatures) for d in dispatchers] == [1, 1, 1]
+    for method in ("rk4", "rk4-lie", "dop853", "midpoint", integ.EXPONENTIAL):
+        integrate(model, y0, 1e-4, method, step=1e-5 if method in integ.FIXED else None, progress=lambda _: None)
+    dispatchers = (rk4.rk4_loop, dop853.integrate_dop853, midpoint.midpoint_loop, lawson.integrate_lawson)
+    assert [len(d.signatures) for d in dispatchers] == [1, 1, 1, 1]
 
 
 @pytest.mark.slow

@@ -349,7 +349,8 @@ def _cli(*args) -> SimpleNamespace:
 
 def test_simulate_command_writes_a_csv_that_parses_back(tmp_path):
     out = tmp_path / "beam.csv"
-    r = _cli("simulate", DIR / "beam.ffrf.h5", "--terms", "III", "--omega0", "10,5,300", "--q0", "0.04,0.02",
+    q0 = ",".join(["0.04", "0.02"] + ["0"] * 14)  # one number per mode of the beam's 16
+    r = _cli("simulate", DIR / "beam.ffrf.h5", "--terms", "III", "--omega0", "10,5,300", "--q0", q0,
              "--t-end", "0.01", "--integrator", "rk4", "--step", "1e-5", "--output-step", "1e-3", "-o", out)
     assert r.returncode == 0, r.stderr
     with open(out) as fh:

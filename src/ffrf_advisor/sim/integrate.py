@@ -1,5 +1,6 @@
 """Integrators for the FFRF equations: fixed-step RK4 (two rotation updates), implicit midpoint, compiled
-DOP853 (``dop853``, sim.dop853), and scipy's solve_ivp (``scipy-dop853``, ``rk45``, ...).
+DOP853 (``dop853``, sim.dop853), compiled DOP853 in Lawson form with the modal oscillators exact
+(``exponential``, sim.lawson), and scipy's solve_ivp (``scipy-dop853``, ``rk45``, ...).
 
 Every run returns a ``Run``: the sampled trajectory, right-hand-side
 evaluations, steps, wall time and, instead of an exception, a failure flag
@@ -25,6 +26,8 @@ from .model import Model
 SCIPY_NAMES = {"dop853": "DOP853", "scipy-dop853": "DOP853", "rk45": "RK45", "radau": "Radau", "bdf": "BDF",
                "lsoda": "LSODA"}
 REASONS = {1: "state not finite or overflowing", 2: "quaternion norm lost"}
+EXPONENTIAL = "exponential"  # sim.lawson: verify's reference; the command line offers it where names lists it
+METHODS = tuple(dict.fromkeys((*INTEGRATORS, EXPONENTIAL)))
 
 
 def rk4_limit(eigenvalues) -> float:
@@ -91,8 +94,8 @@ def integrate(model: Model, y0: np.ndarray, t_end: float, method: str = "rk4", s
               rtol: float = 1e-8, atol: float = 1e-10, output_step: float | None = None,
               loads: Loads = Loads(), progress: Callable[[float], None] | None = None) -> Run:
     """Integrate from t = 0 to ``t_end``; samples every ``output_step`` (default t_end / 1000, or every step)."""
-    if method not in INTEGRATORS:
-        raise ValueError(f"integrator {method!r}: expected one of {', '.join(INTEGRATORS)}")
+    if method not in METHODS:
+        raise ValueError(f"integrator {method!r}: expected one of {', '.join(METHODS)}")
     y0 = np.array(y0, float)
     program = loads.compiled()
     if method in FIXED:
@@ -107,15 +110,17 @@ def integrate(model: Model, y0: np.ndarray, t_end: float, method: str = "rk4", s
             return _midpoint_compiled(model, y0, step, nsteps, every, program)
         return _fixed_python(model, y0, step, nsteps, every, method, loads, progress)
     output_step = output_step or t_end / 1000
-    if method == "dop853" and program is not None:
-        return _dop853_compiled(model, y0, t_end, rtol, atol, output_step, program)
+    if method in ("dop853", EXPONENTIAL) and program is not None:
+        return _dop853_compiled(model, y0, t_end, rtol, atol, output_step, program, method)
+    if method == EXPONENTIAL:
+        raise ValueError(f"integrator {method}: loads with a modal force are for the other integrators")
     return _adaptive(model, y0, t_end, method, rtol, atol, output_step, loads)
 
 
 def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
     """RK4 entirely in compiled code: in chunks of about 1 % when a progress bar follows (each chunk is a call
     from Python, about 20 us), else in one call."""
-    from . import kernels
+    from . import rk4
     address, compiled = compiled_args(model)
     out = np.empty((nsteps // every + 1, len(y0)))
     chunk = every * max(1, (nsteps // every) // 100) if progress else nsteps
@@ -123,7 +128,7 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
     while done < nsteps and code == 0:
         n = min(chunk, nsteps - done)
         part = out[done // every:done // every + n // every + 1]  # its row 0: y, the last chunk's last row
-        steps, code = kernels.rk4_loop(address, y, h, n, every, lie, part, compiled)
+        steps, code = rk4.rk4_loop(address, y, h, n, every, lie, part, compiled)
         rows = steps // every if code else n // every
         done += steps
         y = part[rows]
@@ -135,7 +140,7 @@ def _rk4_compiled(model, y0, h, nsteps, every, lie, progress) -> Run:
                failed=code != 0, t_fail=done * h if code else None, reason=REASONS.get(code, ""), step=h)
 
 
-COMPILED = ("rhs", "rk4", "dop853", "midpoint")
+COMPILED = ("rhs", "rk4", "dop853", "midpoint", EXPONENTIAL)
 
 
 def compile_ahead(names) -> None:
@@ -144,11 +149,13 @@ def compile_ahead(names) -> None:
     without it: separate processes can compile them side by side (the tests' workers do, tests/conftest.py)."""
     from numba import types as t
 
-    from . import dop853, kernels, midpoint
+    from . import dop853, kernels, lawson, midpoint, rk4
     F1, F2, M, i8, f8 = kernels.F1, kernels.F2, kernels.MODEL, t.int64, t.float64
+    adaptive = (i8, F1, f8, f8, F1, F1, i8, F2, M, F1, F1)
     ahead = {"rhs": kernels.rhs_address,
-             "rk4": lambda: kernels.rk4_loop.compile((i8, F1, f8, i8, i8, t.boolean, F2, M)),
-             "dop853": lambda: dop853.integrate_dop853.compile((i8, F1, f8, f8, F1, F1, i8, F2, M, F1, F1)),
+             "rk4": lambda: rk4.rk4_loop.compile((i8, F1, f8, i8, i8, t.boolean, F2, M)),
+             "dop853": lambda: dop853.integrate_dop853.compile(adaptive),
+             EXPONENTIAL: lambda: lawson.integrate_lawson.compile(adaptive),
              "midpoint": lambda: midpoint.midpoint_loop.compile((i8, F1, f8, i8, i8, F2, M, F1, F1))}
     for name in names:
         ahead[name]()
@@ -310,21 +317,23 @@ def _output_times(t_end: float, output_step: float) -> np.ndarray:
 DOP853_FAILURES = {1: "required step size is less than spacing between numbers", 2: REASONS[1]}
 
 
-def _dop853_compiled(model, y0, t_end, rtol, atol, output_step, program) -> Run:
-    """DOP853 in compiled code (sim.dop853), sampled on the output grid as it goes."""
-    from . import dop853
+def _dop853_compiled(model, y0, t_end, rtol, atol, output_step, program, method="dop853") -> Run:
+    """DOP853 in compiled code (sim.dop853), or in Lawson form (``exponential``, sim.lawson), sampled on the output
+    grid as it goes."""
+    from . import dop853, lawson
+    kernel = lawson.integrate_lawson if method == EXPONENTIAL else dop853.integrate_dop853
     t = _output_times(t_end, output_step)
     out = np.empty((len(t), len(y0)))
     budget = work_budget(model, y0, t_end)
     atol = np.broadcast_to(np.asarray(atol, float), y0.shape).copy()
     address, compiled = compiled_args(model)
     start = time.perf_counter()
-    rows, nfev, steps, code, t_reached = dop853.integrate_dop853(
+    rows, nfev, steps, code, t_reached = kernel(
         address, y0, float(t_end), float(rtol), atol, t, budget, out, compiled, program, np.zeros(model.nf))
     wall = time.perf_counter() - start
     reason = (f"work budget of {budget} right-hand sides spent at t = {t_reached:.6g} (stiff, or blowing up)"
               if code == dop853.OVER_BUDGET else DOP853_FAILURES.get(code, ""))
-    return Run("dop853", t[:rows], out[:rows], nfev, steps, wall, code != 0, t_reached if code else None, reason)
+    return Run(method, t[:rows], out[:rows], nfev, steps, wall, code != 0, t_reached if code else None, reason)
 
 
 def _adaptive(model, y0, t_end, method, rtol, atol, output_step, loads) -> Run:

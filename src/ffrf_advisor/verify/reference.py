@@ -1,7 +1,8 @@
 """The reference of a scene and its self-check, taken at the price it is worth (theory section 10,
 docs/simulate.md).
 
-The reference is the full set at REF_RTOL. Its error must stay below
+The reference is the full set at REF_RTOL, integrated by the
+exponential scheme (sim.lawson). Its error must stay below
 SELF_CHECK times the tolerance, else the scene gives no verdict (an
 unconverged reference cannot tell a set's error from its own). The full
 set is also run as a term set, at verify's (looser) tolerance: the

@@ -1,6 +1,8 @@
 """Run the reference and the term sets through the scenes; errors, cost, speed-up and the verdict (theory section 10).
 
-Reference: the full term set at ``REF_RTOL``, its error estimated and,
+Reference: the full term set at ``REF_RTOL`` with the exponential
+integrator (sim.lawson: the modal oscillators exact, the steps set by
+the spin, loads and couplings), its error estimated and,
 where the estimate does not show convergence, checked by
 self-convergence (verify.reference); a scene whose reference did not
 converge gives no verdict. Every set is run once with the same
@@ -26,7 +28,7 @@ from ..response import frequency_change
 from ..pool import cpus, mapper, threads
 from ..predict import level_of
 from ..sim.cost import rhs_cost
-from ..sim.integrate import FIXED, Run, integrate
+from ..sim.integrate import EXPONENTIAL, FIXED, Run, integrate
 from ..sim.model import Model, build_model, initial_state
 from ..sim.output import summary
 from ..sim.timing import evaluation_seconds, timed
@@ -187,8 +189,9 @@ def run_scene(model: Model, scene: Scene, integrator: str = "dop853", step: floa
 
 
 def reference(a: Analysis, scene: Scene) -> Reference:
-    """The full set at REF_RTOL, its error not yet estimated (verify.reference)."""
-    run = run_scene(reference_model(a, scene), scene, "dop853", rtol=REF_RTOL)
+    """The full set at REF_RTOL with the exponential integrator (sim.lawson), its error not yet estimated
+    (verify.reference)."""
+    run = run_scene(reference_model(a, scene), scene, EXPONENTIAL, rtol=REF_RTOL)
     return Reference(run, {}, run.wall_s, 0)
 
 
@@ -314,7 +317,7 @@ def _reference_run(i: int) -> Reference:
 def _tight_run(i: int) -> Run:
     """Scene i's reference model at REF_RTOL / 100 (the self-check)."""
     sc = _work.scenes[i]
-    return run_scene(reference_model(_work.a, sc), sc, "dop853", rtol=REF_RTOL / 100)
+    return run_scene(reference_model(_work.a, sc), sc, EXPONENTIAL, rtol=REF_RTOL / 100)
 
 
 def _set_run(pair: tuple[int, int], ref: Reference) -> SetResult:

@@ -15,7 +15,7 @@ from ..pool import beside
 from ..response import frequency_change
 from ..situation import Situation
 from ..sim.equations import energy
-from ..sim.integrate import COMPILED, compile_beside
+from ..sim.integrate import COMPILED, EXPONENTIAL, compile_beside
 from ..sim.linearise import campbell, campbell_speeds
 from ..sim.model import build_model
 from ..terms import FULL, LEVEL_SETS
@@ -111,7 +111,7 @@ def run_study(a: Analysis, scene_names, tolerance: float = 0.01, integrator: str
     total = runs + (0 if quick else 3)
     told = (lambda label, done, _: progress(label, done, total)) if progress else (lambda *_: None)
     first = scenes[0]
-    kernels = {"dop853", integrator.removesuffix("-lie")} if quick else set(COMPILED) - {"rhs"}  # rk4-lie: rk4's
+    kernels = {EXPONENTIAL, integrator.removesuffix("-lie")} if quick else set(COMPILED) - {"rhs"}  # rk4-lie: rk4's
     compile_beside(sorted(kernels & set(COMPILED)))
     studies = None if quick else lambda: (stability_studies(a, first), campbell_data(a, first.speed, first.axis))
     # One job: the studies, which time nothing, run beside the references, ended before the first timed run.

@@ -1,6 +1,7 @@
 """Work-precision data: error against cost per term set and integrator over tolerances and steps (theory section 10).
 
-Like DiffEqDevTools' work-precision sets: every (term set, integrator)
+Like DiffEqDevTools' work-precision sets: every (term set, integrator:
+DOP853 and its exponential form sim.lawson, RK4, the implicit midpoint rule)
 pair is run at a range of tolerances (adaptive) or steps (fixed), its
 error is the worst of the scene's errors against the reference, its cost
 the wall time of one run (sim.timing.timed: the minimum over ``repeats``
@@ -16,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..analysis import Analysis
-from ..sim.integrate import rk4_limit
+from ..sim.integrate import EXPONENTIAL, rk4_limit
 from ..sim.model import build_model
 from ..sim.timing import timed
 from .measures import worst
@@ -44,7 +45,8 @@ def work_precision(a: Analysis, scene: Scene, ref: Reference, sets: tuple[TermSe
     """The work-precision points of ``sets`` in ``scene``; sets with the same terms share the runs of the first
     (``runner.distinct``), each under its own name."""
     limit = rk4_limit(a.body.eigenvalues)
-    runs = ([("dop853", r, None) for r in RTOLS] + [("rk4", f * limit, f * limit) for f in RK4_STEPS]
+    runs = ([(name, r, None) for name in ("dop853", EXPONENTIAL) for r in RTOLS]
+            + [("rk4", f * limit, f * limit) for f in RK4_STEPS]
             + [("midpoint", f * limit, f * limit) for f in MIDPOINT_STEPS])
     of_terms = {ts.terms: _points(a, scene, ref, ts, runs, repeats) for ts in distinct(sets)}
     return [replace(p, set=ts.label) for ts in sets for p in of_terms[ts.terms]]

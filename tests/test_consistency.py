@@ -49,7 +49,9 @@ def _raises(body, *words):
 
 
 def _with_stress(body, factor):
-    return replace(body, fe=replace(body.fe, stress_nodal=body.fe.stress_nodal * factor))
+    """Both copies of the modal stress (nodal values and their maxima) multiplied by ``factor`` (per mode)."""
+    return replace(body, sigma_max=body.sigma_max * factor, fe=replace(body.fe, stress_nodal=body.fe.stress_nodal
+                                                                        * factor))
 
 
 # --- the inverse inequality ---------------------------------------------------------------------------------------
@@ -240,3 +242,10 @@ def test_a_calculix_body_passes_its_cross_checks_and_its_eigenvalues_x025_do_not
     np.testing.assert_allclose(peak.sigma, peak.recomputed, rtol=1e-4)  # 6 printed digits of ccx's stresses
     checked(body, "bar.frd")
     _raises(replace(body, eigenvalues=body.eigenvalues * 0.25), "eigenvalues", "difference of 3")
+
+
+def test_a_stress_maximum_that_is_not_the_nodal_maximum_is_refused(beam):
+    """The issue's .ffrf.h5 damage: stress/max x100 beside stress/nodal untouched."""
+    sigma = beam.sigma_max.copy()
+    sigma[4] *= 100
+    _raises(replace(beam, sigma_max=sigma), "modal stress maximum", "mode 5")

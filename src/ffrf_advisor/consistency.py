@@ -71,11 +71,26 @@ def _peak(body: FlexibleBody, peak, p: int) -> str:
             f"{peak.node[p]} (from 0)")
 
 
+def check_sigma_max(body: FlexibleBody, path) -> None:
+    """The modes' largest stresses (``sigma_max``) are the maxima of their nodal stresses, to the source's precision
+    (a second copy, such as a file's stress/max beside stress/nodal)."""
+    fe = body.fe
+    if fe is None or fe.stress_nodal is None or body.sigma_max is None:
+        return
+    nodal = fe.stress_nodal.max(axis=0)
+    error = np.abs(body.sigma_max - nodal) / np.maximum(nodal, np.finfo(float).tiny)
+    p = int(np.argmax(error))
+    if not error[p] <= precision(body.provenance.digits, 1e-12):  # 1e-12: copies of one double, unit conversions
+        raise BodyFileError(path, "modal stress maximum", f"the largest nodal von Mises stress of mode {p + 1}, "
+                            f"{nodal[p]:.6g}", f"{body.sigma_max[p]:.6g}")
+
+
 def checked(body: FlexibleBody, path) -> FlexibleBody:
     """``body`` once its eigenvalues agree with its stiffness and its modal stresses with their bound and its
     material (theory 2, 6; docs/advice.md); else a one-line error naming both places."""
     if body.fe is not None:
         check_eigenvalues(body, path)
+        check_sigma_max(body, path)
         check_stress(body, path)
     return body
 

@@ -79,8 +79,8 @@ def capacity(mesh: Mesh) -> float:
 
 @dataclass(frozen=True)
 class PeakStress:
-    """Per mode: its peak nodal von Mises stress in the file, the node, the bound there (inf: no solid cell at it)
-    and the stress recomputed there from the modes and the material."""
+    """Per mode: its peak nodal von Mises stress in the file, the node, the bound there (inf: no solid cell at it, or
+    a node of shells or beams) and the stress recomputed there from the modes and the material (NaN: likewise)."""
 
     sigma: np.ndarray
     node: np.ndarray
@@ -99,7 +99,10 @@ def peak_stress(fe: ModalFE, eigenvalues: np.ndarray) -> PeakStress | None:
     energy = 3 * fe.material.E * np.clip(eigenvalues, 0, None) / (2 * (1 + fe.material.nu))  # >= int s_vm^2
     bound, recomputed = np.full(nf, np.inf), np.full(nf, np.nan)
     peaks = Mesh(fe.mesh.points, holding(fe.mesh, node))  # one pass over the cells; then only theirs per mode
+    structural = set() if fe.rotary is None else set(fe.rotary.nodes.tolist())  # shells, beams: not bounded here
     for p in range(nf):
+        if int(node[p]) in structural:
+            continue
         local, nodes = around(peaks, int(node[p]))
         if local.cells:
             bound[p] = np.sqrt(capacity(local) * energy[p])

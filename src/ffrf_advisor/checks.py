@@ -173,10 +173,10 @@ def _apparent_warning(body: FlexibleBody) -> tuple[str, ...]:
 def _solid_warning(body: FlexibleBody, rho: float) -> tuple[str, ...]:
     if ENGINEERING_DENSITY[0] <= rho <= ENGINEERING_DENSITY[1]:
         return ()
-    return (f"density of the solids outside engineering materials: mass {body.mass:.4g} {body.units.mass} over the "
-            f"solid cells' volume is {rho:.4g} kg/m^3, outside {ENGINEERING_DENSITY[0]:g}-"
-            f"{ENGINEERING_DENSITY[1]:g} kg/m^3: a density in other units{_unit_guess(body, rho)}, a damaged "
-            "density or mass, or point masses heavier than the solids",)
+    u = body.units
+    return (f"implausible density: mass {body.mass:.4g} {u.mass} over the solid cells' volume is {rho:.4g} kg/m^3, "
+            f"outside engineering materials ({ENGINEERING_DENSITY[0]:g}-{ENGINEERING_DENSITY[1]:g} kg/m^3; units "
+            f"{u}){_unit_guess(body, rho)}; or a damaged density or mass, or point masses heavier than the solids",)
 
 
 def _overfilled(body: FlexibleBody) -> tuple[str, ...]:

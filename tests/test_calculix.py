@@ -413,3 +413,16 @@ def test_a_flexible_mode_at_zero_frequency_is_refused(jobs, tmp_path):
 def test_the_rigid_modes_are_named(jobs):
     notes = read_body(jobs["binary"]).provenance.notes
     assert "rigid modes (shapes spanned by rigid motions) dropped: 1, 2, 3, 4, 5, 6" in notes
+
+
+@pytest.mark.parametrize("old, new, names", [
+    (b"*ELASTIC\n", b"*ULASTIC\n", ("d.inp", "*ELASTIC", "none")),  # one bit: read without a material before
+    (b"\n210000.0, 0.3\n", b"\n210000.0, 3\n", ("d.inp", "*ELASTIC", "nu")),
+    (b"\n210000.0, 0.3\n", b"\n420000.0, 0.3\n", ("d.frd", "eigenvalues", "Rayleigh")),
+])
+def test_a_damaged_elastic_card_is_refused(jobs, tmp_path, old, new, names):
+    """Found by the differential fuzzer: '*ELASTIC' -> '*ULASTIC' dropped the deck's material, and with it the static
+    centrifugal response, and the term set changed with no word. A frequency step needs a stiffness card (CalculiX
+    refuses an unknown one); an E that is not the run's disagrees with the eigenvalues (Rayleigh quotients)."""
+    assert old in jobs["ascii"].with_suffix(".inp").read_bytes()
+    _one_line(_analyze(_damaged(jobs, tmp_path, ".inp", lambda b: b.replace(old, new, 1))), *names)

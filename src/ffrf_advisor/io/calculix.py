@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..body import FlexibleBody, Provenance
+from ..consistency import checked
 from ..errors import BodyFileError
 from ..fe.assembly import mass_matrix
 from ..fe.code_rules import CALCULIX, rules_of
@@ -28,7 +29,8 @@ from ..fe.elements import element_type
 from ..fe.mesh import Mesh
 from ..fe.stress import von_mises
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
-from .calculix_deck import Deck, deck_density, deck_material, read_deck, text_lines, write_deck  # noqa: F401
+from .calculix_deck import (Deck, check_stiffness, deck_density, deck_material, read_deck, text_lines,  # noqa: F401
+                            write_deck)
 from .calculix_frd import ASCII_DIGITS, NAMES, SOLIDS, Frd
 from .calculix_modes import dat_eigenvalues as _dat_eigenvalues, eigenvalues, rigid_by_shape  # noqa: F401
 from .calculix_mass import (carried_masses, check_modal_masses, check_total_mass, refuse_rotary_inertia,
@@ -181,6 +183,7 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     stem = Path(path).with_suffix("")
     deck = read_deck(stem.with_suffix(".inp"))
     refuse_rotary_inertia(deck)
+    check_stiffness(deck)
     cells = _solid_cells(frd, deck, index)
     points, from_deck = _precise_points(frd, deck)
     modes, lam, source, Phi, stress = _modes(frd, index, stem)
@@ -206,6 +209,7 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     body = fe_body(Path(path).name.split(".")[0], mesh, Ms, Phi_n, lam[flex],
                    Provenance(source=str(path), mass_matrix="consistent", notes=tuple(notes), digits=frd.digits),
                    K, stress, material)
+    body = checked(body, path)  # eigenvalues against K, modal stresses against their bound (theory 2, 6)
     return body if material is None or not free_free else with_centrifugal_response(body)
 
 

@@ -44,6 +44,8 @@ class Deck:
     rotary: list[str] = field(default_factory=list)                    # ELSETs of *ROTARY INERTIA
     rigid: list[RigidBody] = field(default_factory=list)
     cards: dict[str, list[float]] = field(default_factory=dict)        # first data line of *DENSITY, *ELASTIC
+    keywords: set[str] = field(default_factory=set)                    # every card's keyword
+    elastic_type: str = "ISO"                                          # TYPE= of the first *ELASTIC
     output_2d: bool = False
 
     def members(self, sets: dict, name: str) -> list[int]:
@@ -87,6 +89,9 @@ class _Reader:
     def card(self, line: str) -> None:
         self.key, self.params = _keyword(line)
         d, p = self.deck, self.params
+        if self.key == "*ELASTIC" and "*ELASTIC" not in d.keywords:
+            d.elastic_type = p.get("TYPE", "ISO")
+        d.keywords.add(self.key)
         if self.key == "*RIGID BODY":
             ref, rot = p.get("REF NODE"), p.get("ROT NODE")
             d.rigid.append(RigidBody(p.get("NSET"), p.get("ELSET"), int(ref) if ref else None,
@@ -172,9 +177,26 @@ def deck_density(deck: Deck | None, frd_path: Path, stem: Path) -> float:
     return values[0]
 
 
+STIFFNESS = ("*ELASTIC", "*HYPERELASTIC", "*HYPERFOAM", "*USER MATERIAL", "*DEFORMATION PLASTICITY")
+
+
+def check_stiffness(deck: Deck | None) -> None:
+    """A frequency step needs a material stiffness: a deck without any of STIFFNESS (a damaged '*ELASTIC' reads as
+    an unknown card, which CalculiX refuses) or with an isotropic *ELASTIC that is not E > 0, -1 < nu < 0.5 did
+    not make the .frd; an error naming the card, never a body without its material."""
+    if deck is None:
+        return
+    if not deck.keywords & set(STIFFNESS):
+        deck.fail("*ELASTIC", "a material stiffness card (*ELASTIC; CalculiX's frequency step needs one)", "none")
+    elastic = deck.cards.get("*ELASTIC")
+    if "*ELASTIC" in deck.keywords and deck.elastic_type == "ISO" and \
+            not (elastic and len(elastic) >= 2 and 0 < elastic[0] < float("inf") and -1 < elastic[1] < 0.5):
+        deck.fail("*ELASTIC", "an isotropic E, nu with E > 0 and -1 < nu < 0.5", repr(elastic))
+
+
 def deck_material(deck: Deck | None) -> Material | None:
     """E, nu (*ELASTIC) and rho (*DENSITY) of the deck (one isotropic material), or None."""
-    if deck is None:
+    if deck is None or deck.elastic_type != "ISO":
         return None
     elastic, density = deck.cards.get("*ELASTIC"), deck.cards.get("*DENSITY")
     if not elastic or len(elastic) < 2 or not density or elastic[0] <= 0 or not -1 < elastic[1] < 0.5 \

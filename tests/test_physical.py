@@ -12,6 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
+from ffrf_advisor.io import h5_checksums
 from ffrf_advisor.io import read_body, write_body
 
 SAMPLE = Path(__file__).resolve().parent.parent / "sample_bodies" / "beam.ffrf.h5"
@@ -49,6 +50,10 @@ def test_a_cache_that_disagrees_with_the_nodal_data_is_an_error(beam, tmp_path):
     possible body."""
     with h5py.File(beam, "r+") as f:
         f["invariants/I"][...] *= 1.01  # still a possible body, but not this mesh's
+    for command in ("info", "analyze"):  # the cache's own checksum (format 4) catches the edit
+        _one_line(runner.invoke(app, [command, str(beam)]), "invariants_sha256")
+    with h5py.File(beam, "r+") as f:
+        h5_checksums.stamp_cache(f)  # a cache written with its checksums, yet not from this mesh
     _one_line(runner.invoke(app, ["convert", str(beam), str(tmp_path / "out.ffrf.h5")]), "invariants/I")
     assert runner.invoke(app, ["info", str(beam)]).exit_code == 0
     assert runner.invoke(app, ["analyze", str(beam)]).exit_code == 0

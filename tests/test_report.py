@@ -13,6 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 from ffrf_advisor.cli import app
+from ffrf_advisor.io import h5_checksums
 from ffrf_advisor.report.verify_input import PNG_SIGNATURE, figures_beside
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -65,6 +66,7 @@ def beam_html(tmp_path_factory):
     shutil.copy(BEAM, body)
     with h5py.File(body, "r+") as f:
         f.attrs["name"] = HOSTILE
+        h5_checksums.stamp_cache(f)  # the name edited on purpose: its digest made anew
     return _report(d, body)
 
 

@@ -237,7 +237,8 @@ class Frd:
             ncomp += "ALL" not in self._line()
         if fmt >= 2:
             rec = np.frombuffer(self._take(count * (4 + 4 * ncomp)), np.dtype([("id", "<i4"), ("v", "<f4", ncomp)]))
-            ids, values = rec["id"].astype(np.int64), rec["v"].astype(float)
+            with np.errstate(invalid="ignore"):  # a NaN among float32 values: refused below, not warned of
+                ids, values = rec["id"].astype(np.int64), rec["v"].astype(float)
             self.digits = min(self.digits, FLOAT32_DIGITS)
         else:
             ids, values = self._ascii_records(fmt, ncomp, name or "100C", count)

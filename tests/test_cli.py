@@ -103,8 +103,10 @@ def test_names_and_notes_from_a_file_are_sanitised_and_cut(tmp_path):
 
 
 def test_formats_are_aligned_and_info_reads_the_com_against_its_round_off():
-    lines = runner.invoke(app, ["formats"]).stdout.splitlines()
+    text = runner.invoke(app, ["formats"], env={"COLUMNS": "80"}).stdout
+    lines = text.split("\n\n")[0].splitlines()  # the formats; then the element types by reader
     assert len({line.index(" read") for line in lines}) == 1, lines  # one column, whatever the suffixes
+    assert "SOLID187" in text and "C3D10" in text and max(map(len, text.splitlines())) <= 80
     info = runner.invoke(app, ["info", str(SAMPLE)]).stdout
     com = next(line for line in info.splitlines() if "|CoM| / size" in line)
     assert "round-off" in com and float(com.split("= ")[1].split()[0]) < 1e-12

@@ -28,3 +28,16 @@ def test_the_shipped_theory_is_the_docs_page():
     from pathlib import Path
     docs = Path(__file__).resolve().parents[1] / "docs" / "theory.md"
     assert docs.read_text(encoding="utf-8") == glossary.theory_text()
+
+
+def test_explain_prints_the_entry_and_refuses_an_unknown_name_in_one_line():
+    from typer.testing import CliRunner
+
+    from ffrf_advisor.cli import app
+    runner = CliRunner()
+    shown = runner.invoke(app, ["explain", "cor_coupling"], env={"COLUMNS": "200"})
+    assert shown.exit_code == 0 and "W3" in shown.stdout and "Glossary: term ids" in shown.stdout
+    unknown = runner.invoke(app, ["explain", "gyro9"])
+    assert unknown.exit_code == 2 and len(unknown.output.strip().splitlines()) == 1
+    listed = runner.invoke(app, ["explain"]).stdout
+    assert "q_max" in listed and "gyro0" in listed and "..." not in listed

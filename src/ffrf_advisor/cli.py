@@ -419,8 +419,11 @@ def _analysed(args: AnalysisArgs, body: Path, options, progress, step: tuple[int
 def _verification(analysis, body: Path, folder: Optional[Path], given: Optional[Path]) -> Optional[dict]:
     """A verification for the report: read from a file, run now (figures into ``folder``), or none."""
     if given is not None:
-        from .report.verify_input import read_verification
-        return read_verification(given)
+        from .io import sha256
+        from .report.verify_input import check_matches, read_verification
+        study = read_verification(given)
+        check_matches(study, analysis, sha256(body), given)
+        return study
     if folder is None:
         return None
     from .report.verify_json import study_json
@@ -710,14 +713,38 @@ def schema_command(command: str = typer.Argument(..., help=f"One of: {', '.join(
     print(schema_text(command), end="")
 
 
+@app.command("explain")
+@handles_errors
+def explain(name: Optional[str] = typer.Argument(
+        None, help="A term id (cf2), a level (III) or a printed quantity (q_max, s_crit); none: every name.")):
+    """What a term id, level or printed quantity means: its entry in the glossary of docs/theory.md (shipped
+    with the tool). Example: ffrf-advisor explain cor_coupling"""
+    from .glossary import known_names, lookup
+    if name is None:
+        out().print(", ".join(known_names()), markup=False, highlight=False)
+        return
+    found = lookup(name)
+    if not found:
+        raise FFRFError(f"explain {name!r}: expected a term id, level or printed quantity of the glossary "
+                        "(`ffrf-advisor explain` lists them; docs/theory.md)")
+    for entry in found:
+        out().print(entry.text(), markup=False, highlight=False)
+    out().print("(docs/theory.md, " + "; ".join(sorted({f"Glossary: {e.table}" for e in found})) + ")",
+                markup=False, highlight=False)
+
+
 @app.command("formats")
 def list_formats():
-    """The body file formats: name, suffixes, read/write."""
-    from .io import formats
+    """The body file formats (name, suffixes, read/write), then the element types each reader takes
+    (docs/elements.md)."""
+    from .io import formats, support
     rows = [(f.name, " ".join(f.suffixes), "read" + (", write" if f.write else "")) for f in formats()]
     widths = [max(len(r[i]) for r in rows) for i in range(2)]
     for name, suffixes, access in rows:
         out().print(f"{name:{widths[0]}s}  {suffixes:{widths[1]}s}  {access}", markup=False)
+    out().print("\nelement types by reader (docs/elements.md):", markup=False, highlight=False)
+    for line in support.console_lines(min(out().width, 100)):
+        out().print(line, markup=False, highlight=False)
 
 
 @app.command()

@@ -38,8 +38,8 @@ def _rows(lines: list[str]) -> list[list[str]]:
 
 def _names(cell: str) -> tuple[str, ...]:
     """The names a first cell defines: its code spans (`q_max`, `governs`), else its text (a level: IV)."""
-    found = NAME.findall(cell)
-    return tuple(n.split("(")[0].strip() for n in found) or (cell,)
+    found = [n.split("(")[0].strip() for n in NAME.findall(cell)]
+    return tuple(n for n in found if not n.startswith(".")) or (cell,)  # '..._paper': a suffix, not a name
 
 
 @cache

@@ -19,10 +19,19 @@ Prints
      (linearisations, evaluated by numpy) report no evaluations: the ratio covers only what is counted, and
      the output names the counted parts;
   4. optionally (--sweep) the wall time of the zoo sweep `scripts/verify_zoo.py` (it rewrites
-     docs/verification.md).
-Timings are minima over repeats, taken serially, those of each part in turn within each repeat (timing.py).
+     docs/verification.md);
+  5. (--series, issue 52) the mode-count series: the beam's recipe with 12, 24, 48 and 96 modes, `verify --quick
+     --repeat 1` of each as a process (after one untimed run that fills numba's cache), its CPU time against the
+     12-mode body's (target: 96 modes at most 3x);
+     with --series-default also the default `verify` of the 96-mode body (target: under 60 CPU-s);
+  6. (--series) `verify --quick` of the beam: every evaluation it makes (its runs, counted as they return, and
+     the compiled timing loops) against one run of each reference and distinct set (target: at most 1.1x);
+  7. (--series) the exponential integrator (sim.lawson) against the compiled DOP853 on every scene's reference
+     (full set, rtol 1e-10) of each sample and each series body: evaluations and CPU-time ratios per body.
+Timings are minima over repeats, taken serially, those of each part in turn within each repeat (timing.py);
+parts 5-7 are CPU times of one run each.
 
-Run: python benchmarks/bench_verify.py [--repeat N] [--skip-old] [--sweep]
+Run: python benchmarks/bench_verify.py [--repeat N] [--skip-old] [--sweep] [--series [--series-default]]
 """
 from __future__ import annotations
 
@@ -168,12 +177,129 @@ def print_floor(best: dict[str, float], info: dict, repeat: int) -> None:
           + ("the stability studies, the Campbell study, set-up" if info["studies"] else "set-up"))
 
 
+SERIES = (12, 24, 48, 96)
+SAMPLES = ("beam", "carbody", "conrod", "genstruct1", "genstruct2", "plate")
+COUNTING = """
+import sys
+from ffrf_advisor.sim import timing
+from ffrf_advisor.verify import runner
+runs, loops, inner, inner_loop = [], [], runner.run_scene, timing._evaluations
+def counting(*args, **kwargs):
+    runs.append(inner(*args, **kwargs))
+    return runs[-1]
+def loop(rhs, y, out, n, *rest):
+    loops.append(n)
+    return inner_loop(rhs, y, out, n, *rest)
+runner.run_scene, timing._evaluations = counting, loop
+from ffrf_advisor.cli import app
+sys.argv = ['ffrf-advisor', *sys.argv[1:]]
+try:
+    app()
+except SystemExit:
+    pass
+print(sum(r.nfev for r in runs), sum(loops), file=sys.stderr)
+"""
+
+
+def series_body(nf: int, folder: Path) -> Path:
+    """The beam's recipe (samples.beam_mesh, steel) with ``nf`` modes, written to ``folder``."""
+    from ffrf_advisor.fe.material import STEEL
+    from ffrf_advisor.fe_body import modal_body
+    from ffrf_advisor.io import write_body
+    from ffrf_advisor.samples import beam_mesh
+    path = folder / f"beam{nf}.ffrf.h5"
+    if not path.exists():
+        write_body(modal_body(beam_mesh(1), STEEL, nf, name=f"beam{nf}"), path)
+    return path
+
+
+def child_cpu(cmd: list[str]) -> tuple[float, str, str]:
+    """(CPU seconds of the process ``cmd`` and its children, stdout, stderr)."""
+    import resource
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    done = subprocess.run(cmd, check=True, capture_output=True, cwd=ROOT, text=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime, done.stdout, done.stderr
+
+
+def mode_series(folder: Path, default: bool) -> list[Path]:
+    """Part 5: verify --quick (and optionally the default verify of the last body) of the series bodies."""
+    bodies, cpu = [series_body(nf, folder) for nf in SERIES], {}
+    child_cpu([*NEW_PATH, "verify", str(bodies[0]), "--scene", "free-spin", "--quick", "--repeat", "1"])  # compiles
+    for nf, path in zip(SERIES, bodies):
+        cpu[nf], out, _ = child_cpu([*NEW_PATH, "verify", str(path), "--speed", "300rad/s", "--quick", "--repeat", "1",
+                                     "--json"])
+        data = json.loads(out)
+        runs = {(r["scene"], tuple(r["terms"])): r["rhs_evaluations"] for r in data["results"]}
+        refs = sum(sc["reference"]["rhs_evaluations"] + sc["reference"]["self_check_evaluations"]
+                   for sc in data["scenes"])
+        print(f"verify --quick, beam recipe with {nf} modes (highest {read_body(path).frequencies_hz[-1]:.0f} Hz): "
+              f"{cpu[nf]:.1f} CPU-s, {cpu[nf] / cpu[SERIES[0]]:.2f}x the {SERIES[0]}-mode body's (target for 96 "
+              f"modes: <= 3); evaluations: sets {sum(runs.values())}, references {refs}; verdict "
+              f"{data['verdict']['verdict']}", flush=True)
+    if default:
+        t, _, _ = child_cpu([*NEW_PATH, "verify", str(bodies[-1]), "--speed", "300rad/s", "--repeat", "1", "--json"])
+        print(f"default verify, {SERIES[-1]} modes: {t:.1f} CPU-s (target < 60)", flush=True)
+    return bodies
+
+
+def evaluations_ratio() -> None:
+    """Part 6: every evaluation of verify --quick of the beam against one run of each reference and set."""
+    _, out, err = child_cpu([sys.executable, "-c", COUNTING, "verify", str(BEAM), "--speed", "300rad/s", "--quick",
+                             "--repeat", "1", "--json"])
+    made, loops = (int(v) for v in err.split()[-2:])
+    data = json.loads(out)
+    once = sum({(r["scene"], tuple(r["terms"])): r["rhs_evaluations"] for r in data["results"]}.values()) + sum(
+        sc["reference"]["rhs_evaluations"] for sc in data["scenes"])
+    print(f"verify --quick beam at 300 rad/s: {made + loops} evaluations ({made} in runs, {loops} in the timing "
+          f"loops) against {once} of one run per reference and set: {(made + loops) / once:.3f}x (target <= 1.1)",
+          flush=True)
+
+
+def exponential_against_dop853(bodies: list[Path]) -> None:
+    """Part 7: every scene's reference model at rtol 1e-10, exponential against compiled DOP853, per body."""
+    from ffrf_advisor.analysis import Options, analyze
+    from ffrf_advisor.guidelines import Situation
+    from ffrf_advisor.verify import runner
+    from ffrf_advisor.verify.measures import worst
+    from ffrf_advisor.verify.reference import scene_errors
+    from ffrf_advisor.verify.scenes import SCENES, make_scenes
+    for path in [ROOT / "sample_bodies" / f"{n}.ffrf.h5" for n in SAMPLES] + bodies:
+        body = read_body(path)
+        a = analyze(body, Options(situation=Situation(w_op=300.0 if "beam" in path.name else None)))
+        scenes = make_scenes(list(SCENES), a)
+        a = runner.for_scenes(a, scenes)
+        nfev, cpu, err = Counter(), Counter(), 0.0
+        for sc in scenes:
+            model, runs = runner.reference_model(a, sc), {}
+            for name in ("dop853", "exponential"):
+                t0 = time.process_time()
+                runs[name] = runner.run_scene(model, sc, name, rtol=1e-10)
+                cpu[name] += time.process_time() - t0
+                nfev[name] += runs[name].nfev
+            err = max(err, worst(scene_errors(a, runs["exponential"], runs["dop853"]), "response"))
+        print(f"{body.name} ({body.nf} modes, {body.frequencies_hz[-1]:.0f} Hz, {len(scenes)} scenes), rtol 1e-10: "
+              f"exponential / DOP853 evaluations {nfev['exponential'] / nfev['dop853']:.2f} ({nfev['exponential']} / "
+              f"{nfev['dop853']}), CPU {cpu['exponential'] / cpu['dop853']:.2f}; largest response difference "
+              f"{err:.1e}", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--skip-old", action="store_true", help="skip the former path of part 2")
     parser.add_argument("--sweep", action="store_true")
+    parser.add_argument("--series", action="store_true", help="parts 5-7 only (issue 52)")
+    parser.add_argument("--series-default", action="store_true", help="with --series: the default verify too")
     args = parser.parse_args()
+    if args.series:
+        import tempfile
+        print(f"bench_verify parts 5-7, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}", flush=True)
+        with tempfile.TemporaryDirectory() as folder:
+            bodies = mode_series(Path(folder), args.series_default)
+            evaluations_ratio()
+            exponential_against_dop853(bodies)
+        return
     per_evaluation(max(args.repeat, 15))  # a round of part 1 takes about 0.1 s
     parts = [floor_timings([]), floor_timings(["--quick"])]
     timings = {k: v for t, _ in parts for k, v in t.items()}

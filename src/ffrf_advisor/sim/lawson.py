@@ -220,7 +220,8 @@ def _stage_propagators(lam, dmp, h, first, last, Ep, Em):
 def _steps(rhs, y, z, h, cap, t_end, rtol, atol, t_out, budget, out, model, prog, fext, scratch, K, DK, Ep, Em, work,
            shift, F, Es):
     """``integrate_lawson``'s steps from t = 0 (y, z = y - s and K[0] = N(0, y) - N_L given, h the initial step, cap
-    the longest: ``step_cap``); its returns. work: rows V, Y, v_new (the step's end in the v frame), y_new, N at y_new, and the error estimates."""
+    the longest: ``step_cap``); its returns. work: rows V, Y, v_new (the step's end in the v frame), y_new, N at
+    y_new, and the error estimates."""
     n = y.shape[0]
     lam, dmp = model[6], model[7]
     V, Y, v_new, y_new, N_new, a5, a3 = work[0], work[1], work[2], work[3], work[4], work[5], work[6]

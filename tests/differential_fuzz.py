@@ -30,6 +30,15 @@ NUMBER = re.compile(rb"(?<![\w.+-])[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?(?![\w.]
 WORD = re.compile(rb"[A-Za-z_][A-Za-z_]+")
 SWAPS = {"json": (b"true", b"false", b'"1"', b"null", b"[1]", b"{}"), "text": (b"true", b"abc", b"1.2.3")}
 MASKED = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?")  # numbers in a warning: its kind is the rest
+# the numbers the advice hangs on, by suffix: half the number damage goes there (the rest anywhere)
+KEY_SPANS = {
+    ".fem": re.compile(rb"RECORD GROUP 9,.*?RECORD GROUP 14", re.S),  # modal mass, stiffness, mass and inertia
+    ".inp": re.compile(rb"\*MATERIAL.*?\*STEP", re.S),                 # *ELASTIC, *DENSITY
+    ".frd": re.compile(rb"  100C[^\n]*|-4  STRESS.*?\n -3", re.S),      # frequencies, modal stresses
+    ".dat": re.compile(rb"E I G E N V A L U E   O U T P U T.*?P A R T I C I P A T I O N", re.S),
+    ".vtu": re.compile(rb"<FieldData>.*?</FieldData>", re.S),           # eigenvalues, frequencies, density
+    ".json": re.compile(rb'"(eigenvalues|frequencies_hz|max_von_mises|I1|I7|mass)":[^"]*'),
+}
 CASE_SECONDS = 60
 OPTIONS = Options(situation=Situation(w_op=1000.0, connection="free"))  # the term set is 6 of 10 on the seeds
 FAILURES = ("silent", "multi_line", "traceback", "hang", "stray_warning")
@@ -43,9 +52,14 @@ def _timeout(*_):
     raise CaseTimeout("case took too long")
 
 
-def _token(data: bytes, rng, pattern=NUMBER, text_only: bool = False):
-    """A random match of ``pattern`` (in printable lines only for a binary file), or None."""
+def _token(data: bytes, rng, pattern=NUMBER, text_only: bool = False, spans=None):
+    """A random match of ``pattern`` (in printable lines only for a binary file; within ``spans`` where given and
+    holding one), or None."""
     found = [m for m in pattern.finditer(data) if not text_only or _printable(data, m.start())]
+    if spans is not None:
+        ranges = [m.span() for m in spans.finditer(data)]
+        inside = [m for m in found if any(a <= m.start() < b for a, b in ranges)]
+        found = inside or found
     return found[rng.integers(len(found))] if found else None
 
 
@@ -77,14 +91,15 @@ def scaled_token(text: bytes, factor: float) -> bytes:
     return out.encode()
 
 
-def mutate_text(data: bytes, kind: str, rng, binary: bool = False, json: bool = False) -> bytes:
-    """One damage of a text file (or of the text lines of a binary .frd)."""
+def mutate_text(data: bytes, kind: str, rng, suffix: str, binary: bool = False) -> bytes:
+    """One damage of a text file with ``suffix`` (or of the text lines of a binary .frd)."""
     if kind == "truncate":
         return data[:int(rng.integers(len(data)))]
     if kind == "flip_number" and binary:  # a binary record: a bit of a byte outside the text lines
         at = int(rng.integers(len(data)))
         return data if _printable(data, at) else _flip(data, at, at + 1, rng)
-    m = _token(data, rng, WORD if kind == "flip_key" else NUMBER, text_only=binary)
+    spans = KEY_SPANS.get(suffix) if kind != "flip_key" and rng.random() < 0.5 else None
+    m = _token(data, rng, WORD if kind == "flip_key" else NUMBER, text_only=binary, spans=spans)
     if m is None:
         return data
     if kind in ("flip_number", "flip_key"):
@@ -92,7 +107,7 @@ def mutate_text(data: bytes, kind: str, rng, binary: bool = False, json: bool = 
     if kind == "factor":
         new = scaled_token(m.group(), FACTORS[rng.integers(len(FACTORS))])
     else:
-        swaps = SWAPS["json" if json else "text"]
+        swaps = SWAPS["json" if suffix == ".json" else "text"]
         new = swaps[rng.integers(len(swaps))]
     return data[:m.start()] + new + data[m.end():]
 

@@ -66,7 +66,7 @@ def damage(target: Path, data: bytes, kind: str, rng) -> None:
         mutate_h5(target, data, kind, rng)
     else:
         binary = target.suffix == ".frd" and target.parent.name == "binary"
-        target.write_bytes(mutate_text(data, kind, rng, binary=binary, json=target.suffix == ".json"))
+        target.write_bytes(mutate_text(data, kind, rng, target.suffix, binary=binary))
 
 
 def _folder(seeds: Path, reader: str, work: Path) -> Path:

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..body import FlexibleBody, Provenance
-from ..consistency import checked
+from ..consistency import check_mode_numbers, checked
 from ..errors import BodyFileError
 from ..fe.assembly import mass_matrix
 from ..fe.code_rules import CALCULIX, rules_of
@@ -139,9 +139,7 @@ def _modes(frd: Frd, index: dict, stem: Path):
     modes = sorted(m for m, name in frd.results if name == "DISP")
     if not modes:
         frd.fail("DISP", "mode shapes (*NODE FILE or *NODE OUTPUT with U)", "none")
-    if modes != list(range(1, len(modes) + 1)):
-        frd.fail("DISP", "the shapes of modes 1, 2, 3 ... (mode numbers consecutive and unique)",
-                 f"modes {', '.join(map(str, modes[:12]))}")
+    check_mode_numbers(frd.path, "DISP mode numbers", modes, first=1)
     lam, source = eigenvalues(frd, modes, stem.with_suffix(".dat"))
     Phi = np.stack([_nodal(frd, index, *frd.results[(m, "DISP")], "DISP")[:, :3] for m in modes], axis=-1)
     stress = None

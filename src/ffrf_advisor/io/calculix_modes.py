@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..consistency import check_frequencies, check_mode_numbers
 from ..errors import BodyFileError
 from ..fe.modal import N_RIGID, rigid_modes
 from .calculix_deck import text_lines
@@ -38,40 +39,30 @@ def _row(path: Path, parts: list[str]) -> list[float]:
 
 def dat_table(path: Path) -> np.ndarray | None:
     """Rows (lambda, omega, f, imaginary omega) of the .dat's first eigenvalue table, or None; the mode
-    numbers must count 1, 2, 3 ... and each row's frequencies must be its eigenvalue's (to 7 digits)."""
+    numbers must count 1, 2, 3 ... and each row's frequency columns must be its eigenvalue's (to 7 digits):
+    omega / 2 pi = f = sqrt(lambda) / 2 pi for lambda >= 0, the imaginary part sqrt(-lambda) else."""
     if not path.is_file():
         return None
     lines = list(text_lines(path))
     start = next((k for k, line in enumerate(lines) if TITLE in line), None)
     if start is None:
         return None
-    rows = []
+    rows, numbers = [], []
     for line in lines[start + 1:]:
         parts = line.split()
         if rows and not parts:
             break
         if parts and parts[0].isdigit():
-            if int(parts[0]) != len(rows) + 1:
-                raise BodyFileError(path, "EIGENVALUE OUTPUT", f"mode {len(rows) + 1} in row {len(rows) + 1} "
-                                    "(mode numbers consecutive and unique)", f"mode {parts[0]}")
+            numbers.append(int(parts[0]))
             rows.append(_row(path, parts))
+    check_mode_numbers(path, "EIGENVALUE OUTPUT mode numbers", numbers, first=1)
     table = np.array(rows).reshape(-1, 4)
-    _check_row_frequencies(path, table)
-    return table
-
-
-def _check_row_frequencies(path: Path, table: np.ndarray) -> None:
-    """lambda = omega^2 (or -omega_imag^2) and f = omega / 2 pi on every row, to the .dat's 7 digits."""
     lam, omega, f, imag = table.T
-    from_lam = np.sqrt(np.abs(lam))
-    tol = 10.0 ** (1 - DAT_DIGITS)  # two 7-digit roundings, relative
-    shown = np.where(lam >= 0, omega, imag)
-    bad = (np.abs(shown - from_lam) > tol * from_lam) | (np.abs(2 * np.pi * f - omega) > tol * omega)
-    if bad.any():
-        k = int(np.argmax(bad))
-        raise BodyFileError(path, "EIGENVALUE OUTPUT", f"mode {k + 1}'s frequency columns equal to its eigenvalue's "
-                            "to 7 digits", f"eigenvalue {lam[k]:.7g} with omega {shown[k]:.7g} rad/time, "
-                            f"f {f[k]:.7g} cycles/time")
+    for column, values in (("FREQUENCY (RAD/TIME)", omega / (2 * np.pi)), ("FREQUENCY (CYCLES/TIME)", f),
+                           ("IMAGINARY PART (RAD/TIME)", imag / (2 * np.pi))):  # -lambda for the imaginary part
+        check_frequencies(path, (f"EIGENVALUE OUTPUT {column}", "its EIGENVALUE column"), values,
+                          lam if column[0] == "F" else -lam, DAT_DIGITS)
+    return table
 
 
 def dat_eigenvalues(path: Path) -> np.ndarray | None:
@@ -91,14 +82,7 @@ def eigenvalues(frd, modes: list[int], dat: Path) -> tuple[np.ndarray, str]:
         raise BodyFileError(dat, "eigenvalues", f"as many as the modes of {frd.path.name} ({max(modes)})",
                             f"{len(table)} (a cut .frd or another run's .dat)")
     lam = table[np.array(modes) - 1, 0]
-    f_dat = np.sqrt(np.maximum(lam, 0.0)) / (2 * np.pi)
-    floor = 10.0 ** -DAT_DIGITS * f_dat.max()  # a zero frequency prints as 0 in one file, as round-off in the other
-    off = np.abs(f_frd - f_dat) > 10.0 ** (1 - FRD_DIGITS) * np.maximum(f_frd, f_dat) + floor
-    if off.any():
-        k = int(np.argmax(off))
-        raise BodyFileError(dat, "EIGENVALUE OUTPUT", f"mode {modes[k]}'s eigenvalue giving the frequency of "
-                            f"{frd.path.name} ({f_frd[k]:.7g} cycles/time) to its 6 digits",
-                            f"{lam[k]:.7g} (f {f_dat[k]:.7g}): one of the two files is damaged or of another run")
+    check_frequencies(frd.path, ("100C frequency", dat.name), f_frd, lam, FRD_DIGITS)
     return _ascending(dat, lam, modes), "eigenvalues from .dat (7 digits), checked against the .frd's frequencies"
 
 

@@ -426,3 +426,20 @@ def test_a_damaged_elastic_card_is_refused(jobs, tmp_path, old, new, names):
     refuses an unknown one); an E that is not the run's disagrees with the eigenvalues (Rayleigh quotients)."""
     assert old in jobs["ascii"].with_suffix(".inp").read_bytes()
     _one_line(_analyze(_damaged(jobs, tmp_path, ".inp", lambda b: b.replace(old, new, 1))), *names)
+
+
+def test_a_free_run_must_have_six_rigid_modes(jobs, tmp_path):
+    """The count of rigid modes must match the connection: the deck has no *BOUNDARY, so the body is free and six
+    shapes must be rigid motions; mode 2's shape made a flexible mode's (the .frd's DISP block of mode 7 copied
+    over it, frequencies kept) is refused naming the count. With a *BOUNDARY in the deck it is a warning."""
+    def copied(data: bytes) -> bytes:
+        text = data.decode("latin-1")
+        blocks = text.split("    1PMODE")
+        disp = [k for k, b in enumerate(blocks) if " -4  DISP" in b]
+        body = lambda b: b[b.index(" -4  DISP"):b.index(" -3", b.index(" -4  DISP"))]  # noqa: E731
+        two, seven = disp[1], disp[6]
+        blocks[two] = blocks[two].replace(body(blocks[two]), body(blocks[seven]))
+        return "    1PMODE".join(blocks).encode("latin-1")
+    frd = _damaged(jobs, tmp_path, ".frd", copied)
+    (tmp_path / "d.dat").unlink()
+    _one_line(_analyze(frd), "d.frd", "six rigid modes of a free body", "5 (modes 1, 3, 4, 5, 6)")

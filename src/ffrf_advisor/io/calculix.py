@@ -30,7 +30,7 @@ from ..fe.mesh import Mesh
 from ..fe.stress import von_mises
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from .calculix_deck import (Deck, check_stiffness, deck_density, deck_material, read_deck, text_lines,  # noqa: F401
-                            write_deck)
+                            unsupported, write_deck)
 from .calculix_frd import ASCII_DIGITS, NAMES, SOLIDS, Frd
 from .calculix_modes import dat_eigenvalues as _dat_eigenvalues, eigenvalues, rigid_by_shape  # noqa: F401
 from .calculix_mass import (carried_masses, check_modal_masses, check_total_mass, refuse_rotary_inertia,
@@ -185,7 +185,7 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     cells = _solid_cells(frd, deck, index)
     points, from_deck = _precise_points(frd, deck)
     modes, lam, source, Phi, stress = _modes(frd, index, stem)
-    rigid, rigid_notes = rigid_by_shape(frd.nodes, Phi, lam, modes, frd.path)
+    rigid, rigid_notes = rigid_by_shape(frd.nodes, Phi, lam, modes, frd.path, free=unsupported(deck))
     notes = [f"CalculiX {Path(path).name}: {len(modes)} modes, {int(rigid.sum())} rigid dropped; {source}"]
     notes += [n for n in (from_deck, _expanded(frd, deck)) if n] + rigid_notes
     free_free = rigid.sum() == N_RIGID and not any(n.startswith("warning") for n in rigid_notes)

@@ -194,6 +194,13 @@ def check_stiffness(deck: Deck | None) -> None:
         deck.fail("*ELASTIC", "an isotropic E, nu with E > 0 and -1 < nu < 0.5", repr(elastic))
 
 
+def unsupported(deck: Deck | None) -> bool:
+    """Whether the deck's body is free: no *BOUNDARY card and no spring or gap element (a run without the deck
+    may be anything)."""
+    return deck is not None and "*BOUNDARY" not in deck.keywords and not any(
+        name.startswith(("SPRING", "DASHPOT", "GAP")) for name in deck.element_names.values())
+
+
 def deck_material(deck: Deck | None) -> Material | None:
     """E, nu (*ELASTIC) and rho (*DENSITY) of the deck (one isotropic material), or None."""
     if deck is None or deck.elastic_type != "ISO":

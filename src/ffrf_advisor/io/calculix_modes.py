@@ -97,11 +97,13 @@ def _ascending(path, lam: np.ndarray, modes: list[int]) -> np.ndarray:
     return lam
 
 
-def rigid_by_shape(points: np.ndarray, Phi: np.ndarray, lam: np.ndarray, modes: list[int], path) -> tuple:
+def rigid_by_shape(points: np.ndarray, Phi: np.ndarray, lam: np.ndarray, modes: list[int], path,
+                   free: bool = False) -> tuple:
     """Modes to drop (mask) and notes. A mode is rigid when its shape lies in the span of the six rigid motions
     of the nodes (theory 4: part outside below RIGID_SHAPE), never by its eigenvalue alone; a rigid shape with a
     frequency that is not zero and a zero frequency of a shape that is not rigid (a mechanism) are errors; a count
-    of rigid modes other than six is a warning naming them."""
+    of rigid modes other than six is an error for a ``free`` run (its deck holds no support), else a warning
+    naming them."""
     R = rigid_modes((points - points.mean(axis=0)) / max(float(np.ptp(points, axis=0).max()), 1e-300))
     S = Phi.reshape(-1, Phi.shape[2])
     coef, *_ = np.linalg.lstsq(R, S, rcond=None)
@@ -113,6 +115,9 @@ def rigid_by_shape(points: np.ndarray, Phi: np.ndarray, lam: np.ndarray, modes: 
                             f"eigenvalue {lam[k]:.7g} (the shape or the eigenvalue is damaged)")
     named = ", ".join(str(modes[k]) for k in np.flatnonzero(rigid)) or "none"
     notes = [f"rigid modes (shapes spanned by rigid motions) dropped: {named}"]
+    if rigid.sum() != N_RIGID and free:
+        raise BodyFileError(path, "DISP", "six rigid modes of a free body (the deck holds no *BOUNDARY nor spring)",
+                            f"{int(rigid.sum())} (modes {named}): a rigid mode's shape or frequency is damaged")
     if rigid.sum() != N_RIGID:
         notes.append(f"warning: {int(rigid.sum())} rigid modes instead of six (modes {named}): the body is "
                      + ("constrained" if rigid.sum() < N_RIGID else "not connected (a mechanism)"))

@@ -185,15 +185,14 @@ def read(path, load_fe: bool = False) -> FlexibleBody:
     cells = _solid_cells(frd, deck, index)
     points, from_deck = _precise_points(frd, deck)
     modes, lam, source, Phi, stress = _modes(frd, index, stem)
-    rigid, rigid_notes = rigid_by_shape(frd.nodes, Phi, lam, modes, frd.path, free=unsupported(deck))
+    Ms, K, mesh, Phi, stress, mass_notes = _mass(frd, deck, Mesh(points, cells), Phi, stress, index, stem)
+    rigid, rigid_notes = rigid_by_shape(mesh.points, Phi, lam, modes, frd.path, free=unsupported(deck))
     notes = [f"CalculiX {Path(path).name}: {len(modes)} modes, {int(rigid.sum())} rigid dropped; {source}"]
-    notes += [n for n in (from_deck, _expanded(frd, deck)) if n] + rigid_notes
+    notes += [n for n in (from_deck, _expanded(frd, deck)) if n] + rigid_notes + mass_notes
     free_free = rigid.sum() == N_RIGID and not any(n.startswith("warning") for n in rigid_notes)
     flex = ~rigid
     if not flex.any():
         frd.fail("DISP", "at least one flexible mode", "only rigid modes")
-    Ms, K, mesh, Phi, stress, mass_notes = _mass(frd, deck, Mesh(points, cells), Phi, stress, index, stem)
-    notes += mass_notes
     if free_free:
         total = check_total_mass(stem.with_suffix(".dat"), float(Ms.sum()), mass_notes[0], deck)
         notes += [total] if total else []

@@ -117,7 +117,8 @@ def rigid_by_shape(points: np.ndarray, Phi: np.ndarray, lam: np.ndarray, modes: 
     notes = [f"rigid modes (shapes spanned by rigid motions) dropped: {named}"]
     if rigid.sum() != N_RIGID and free:
         raise BodyFileError(path, "DISP", "six rigid modes of a free body (the deck holds no *BOUNDARY nor spring)",
-                            f"{int(rigid.sum())} (modes {named}): a rigid mode's shape or frequency is damaged")
+                            f"{int(rigid.sum())} (modes {named}): a rigid mode's shape or frequency is damaged, or the "
+                            "elements give a rigid motion stiffness")
     if rigid.sum() != N_RIGID:
         notes.append(f"warning: {int(rigid.sum())} rigid modes instead of six (modes {named}): the body is "
                      + ("constrained" if rigid.sum() < N_RIGID else "not connected (a mechanism)"))

@@ -114,13 +114,13 @@ def test_every_sample_keeps_its_stress_within_the_bound_and_agrees_with_its_reco
 def test_a_body_of_every_zoo_family_keeps_its_stress_within_the_bound(family):
     body = zoo_body(family, 1000)
     peak = peak_stress(body.fe, body.eigenvalues)
-    assert np.all(peak.sigma <= peak.bound) and np.all(peak.bound / peak.sigma > 10)  # measured 20.6 at least
+    assert np.all(peak.sigma <= peak.bound) and np.all(peak.bound / peak.sigma > 10)  # measured 29 at least
     checked(body, family)
     _raises(_with_stress(body, 10), "modal stress")
 
 
 def test_a_stress_x10_of_one_cell_exceeds_the_bound_alone(cube):
-    """In one cell the bound is 7-13 times the peak (measured): a mode x10 whose slack is below 10 is refused by
+    """In one cell the bound is 9.7-18 times the peak (measured): a mode x10 whose slack is below 10 is refused by
     the energy, before its recomputation is looked at."""
     peak = peak_stress(cube.fe, cube.eigenvalues)
     p = int(np.argmin(peak.bound / peak.sigma))

@@ -22,7 +22,7 @@ from .fe.elements import ELEMENT_TYPES
 from .fe.mesh import Mesh
 from .fe.stress import modal_von_mises
 
-ALLOWANCE = 4.0  # on C: curved (isoparametric) cells and other codes' extrapolation to nodes (docs/advice.md)
+ALLOWANCE = 8.0  # on C: curved cells reach 3.2 C (the zoo's round bars), other codes extrapolate (docs/advice.md)
 RANK = 1e-10     # Gram eigenvalues below this share of the largest span nothing (dependent derivatives)
 
 

@@ -141,8 +141,8 @@ def test_non_finite_numbers_are_refused_for_every_float_option(value):
     """--f-max inf wrote Infinity into modes --json and nan was ignored: every float option refuses them at
     parsing (cli_params), before any body is read."""
     _one_line_exit_2(["modes", BEAM, "--speed", "30rad/s", "--f-max", value, "--json"], "--f-max",
-                     "not a finite number")
-    _one_line_exit_2(["simulate", BEAM, "--t-end", value], "--t-end", "not a finite number")
+                     "expected a finite number")
+    _one_line_exit_2(["simulate", BEAM, "--t-end", value], "--t-end", "expected a finite number")
 
 
 def test_a_config_path_that_is_not_a_regular_file_is_named_in_one_line(tmp_path, monkeypatch):

@@ -61,7 +61,7 @@ class PlainRuntimeParam(RuntimeParam):
         except (TypeError, ValueError):
             raise BadParameter(f"{value!r} is not a valid {NUMBER_WORDS[self.leaf]}.", ctx=ctx, param=param) from None
         if not math.isfinite(number):  # inf and nan parse as floats: --f-max inf wrote Infinity into JSON
-            raise BadParameter(f"{value!r} is not a finite number.", ctx=ctx, param=param)
+            raise BadParameter(f"expected a finite number, got {value!r}.", ctx=ctx, param=param)
         low, high = self.parameter_info.min, self.parameter_info.max
         if (low is not None and number < low) or (high is not None and number > high):
             bounds = " and ".join(b for b in (low is not None and f"x>={low}", high is not None and f"x<={high}")

@@ -1,10 +1,13 @@
 """Differential fuzzer (issue 49, part 8; tests/differential_fuzz.py): 2,100 damaged copies of clean files of
 seven readers, each refused in one line, read to the clean file's level and term set, or carrying a warning the
 clean file lacks. A silent change of the advice fails the run (read and analysed in-process with the API: the
-CLI's start-up would cost more than the case; fixed seed)."""
+CLI's start-up would cost more than the case; fixed seed). Beside them, the issue's targeted edits of the numbers
+the advice hangs on (TARGETED). Known silent changes in readers this file's owner may not edit are strict xfails
+naming the owner: they fail again (XPASS) once fixed, and any new one fails the run."""
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -166,3 +169,88 @@ def test_a_silent_change_is_told_from_a_warned_one(seeds, tmp_path):
     assert classify(fem, {}, Clean(moved.level, moved.terms, frozenset()), memo)[0] == "warned"
     fem.write_bytes(b"garbage")
     assert classify(fem, {}, clean, memo)[0] == "refused"
+
+
+def _h5_scaled(name: str, factor: float, index: int = 0):
+    def edit(path: Path) -> None:
+        import h5py
+        with h5py.File(path, "r+") as f:
+            a = f[name][()]
+            a.reshape(-1)[index] *= factor
+            f[name][...] = a
+    return edit
+
+
+def _text(old: bytes, new: bytes):
+    def edit(path: Path) -> None:
+        data = path.read_bytes()
+        assert old in data, old
+        path.write_bytes(data.replace(old, new, 1))
+    return edit
+
+
+def _scaled_after(anchor: bytes, factor: float, pattern: bytes = rb"[-+]?\d\.\d+[eE][-+]\d+|\d+\.\d+"):
+    """The first number after ``anchor`` times ``factor`` in its own format."""
+    def edit(path: Path) -> None:
+        data = path.read_bytes()
+        m = re.compile(pattern).search(data, data.index(anchor) + len(anchor))
+        path.write_bytes(data[:m.start()] + scaled_token(m.group(), factor) + data[m.end():])
+    return edit
+
+
+def _exponent(anchors: tuple[bytes, ...], new: bytes):
+    """The first exponent 'E+' after ``anchors`` (each after the one before) with its first digit replaced (``new``:
+    E+04 -> E+34)."""
+    def edit(path: Path) -> None:
+        data, at = path.read_bytes(), 0
+        for anchor in anchors:
+            at = data.index(anchor, at)
+        at = data.index(b"E+", at)
+        path.write_bytes(data[:at] + new + data[at + len(new):])
+    return edit
+
+
+# (reader, file, what, edit): the issue's targeted edits of the numbers the advice hangs on
+TARGETED = [
+    ("ffrf-h5", "seed.ffrf.h5", "stress/max x100", _h5_scaled("stress/max", 100.0)),
+    ("ffrf-h5", "seed.ffrf.h5", "modes/eigenvalues x0.25 (K stored)", _h5_scaled("modes/eigenvalues", 0.25)),
+    ("ffinv-h5", "seed.ffinv.h5", "max_von_mises x2^-16 (one exponent bit)", _h5_scaled("max_von_mises", 2.0**-16)),
+    ("ffinv-h5", "seed.ffinv.h5", "eigenvalues x0.25", _h5_scaled("eigenvalues", 0.25)),
+    ("ffinv-json", "seed.ffinv.json", '"I1": true', _text(b'"I1": ', b'"I1": true, "_was": ')),
+    ("ffinv-json", "seed.ffinv.json", "eigenvalue x0.25", _scaled_after(b'"eigenvalues": [', 0.25)),
+    ("ffinv-json", "seed.ffinv.json", "max_von_mises x0.01", _scaled_after(b'"max_von_mises": [', 0.01)),
+    ("vtu", "seed.vtu", "eigenvalue x0.25", _scaled_after(b'Name="eigenvalues"', 0.25, rb"\d+\.\d+")),
+    ("vtu", "seed.vtu", "density x2", _scaled_after(b'Name="density"', 2.0, rb"\d\.\d+e-\d+")),
+    ("mbdyn", "seed.fem", "modal stiffness x0.25", _scaled_after(b"MODAL STIFFNESS MATRIX\n", 0.25, rb"\d+\.\d+")),
+    ("mbdyn", "seed.fem", "mass x2", _scaled_after(b"GLOBAL INERTIA\n", 2.0, rb"\d\.\d+e-\d+")),
+    ("calculix-ascii", "ascii/seed.dat", "eigenvalue of mode 8 E+11 -> E+81", _exponent((b"\n      8  ",), b"E+8")),
+    ("calculix-ascii", "ascii/seed.frd", "1PMODE -> 6PMODE", _text(b"    1PMODE                         2",
+                                                                b"    6PMODE                         2")),
+    ("calculix-ascii", "ascii/seed.frd", "a stress exponent of mode 7 E+0d -> E+3d",
+     _exponent((b"1PMODE                         7", b"-4  STRESS", b"\n -1"), b"E+3")),
+    ("calculix-ascii", "ascii/seed.inp", "*DENSITY x2", _scaled_after(b"*DENSITY\n", 2.0, rb"\d\.\d+e-\d+")),
+    ("calculix-ascii", "ascii/seed.inp", "*ELASTIC E x2", _scaled_after(b"*ELASTIC\n", 2.0, rb"\d+\.\d+")),
+]
+STRESS_ALONE = ("the invariants format's max_von_mises has no second copy and no mesh to bound it (issue 49 "
+                "item 2; a checksum or the stress bound's inputs would be needed); owner: io/ffinv.py")
+TARGETED_SILENT = {  # what -> owner, where a targeted edit still changes the advice silently
+    "max_von_mises x2^-16 (one exponent bit)": STRESS_ALONE,
+    "max_von_mises x0.01": STRESS_ALONE,
+}
+
+
+@pytest.mark.slow  # the seeds' CalculiX runs
+@pytest.mark.parametrize("reader, name, what, edit", [
+    pytest.param(*t, marks=_marks(t[0], *([pytest.mark.xfail(strict=True, reason=TARGETED_SILENT[t[2]])]
+                                          if t[2] in TARGETED_SILENT else [])), id=f"{t[0]}: {t[2]}")
+    for t in TARGETED])
+def test_targeted_edits_of_key_numbers_never_change_the_advice_silently(seeds, tmp_path, reader, name, what, edit,
+                                                                        capsys):
+    path = _folder(seeds, reader, tmp_path)
+    memo: dict = {}
+    clean = advice_of(path, {}, memo)
+    edit(tmp_path / name)
+    outcome, why = classify(path, {}, clean, memo)
+    with capsys.disabled():
+        print(f"\n{reader}, {what}: {outcome} {why[:160]}")
+    assert outcome in ("refused", "same", "warned"), f"{outcome}: {why}"

@@ -30,7 +30,8 @@ def _row(path: Path, parts: list[str]) -> list[float]:
     try:
         values = [float(p) for p in parts[1:5]]
     except ValueError:
-        raise BodyFileError(path, "EIGENVALUE OUTPUT", "numbers in E14.7 columns", repr(" ".join(parts)[:60]))
+        raise BodyFileError(path, "EIGENVALUE OUTPUT", "numbers in E14.7 columns",
+                            repr(" ".join(parts)[:60])) from None
     if len(values) < 4 or not np.all(np.isfinite(values)):
         raise BodyFileError(path, "EIGENVALUE OUTPUT", "a mode number and four finite numbers per row",
                             repr(" ".join(parts)[:60]))

@@ -1,9 +1,10 @@
 """Differential fuzzer (issue 49, part 8; tests/differential_fuzz.py): 2,400 damaged copies of clean files of
 seven readers (CalculiX with and without its .dat), each refused in one line, read to the clean file's level and
-term set, or carrying a warning the clean file lacks. A silent change of the advice fails the run (read and analysed in-process with the API: the
-CLI's start-up would cost more than the case; fixed seed). Beside them, the issue's targeted edits of the numbers
-the advice hangs on (TARGETED). Known silent changes in readers this file's owner may not edit are strict xfails
-naming the owner: they fail again (XPASS) once fixed, and any new one fails the run."""
+term set, or carrying a warning the clean file lacks. A silent change of the advice fails the run (read and
+analysed in-process with the API: the CLI's start-up would cost more than the case; fixed seed). Beside them,
+the issue's targeted edits of the numbers the advice hangs on (TARGETED). Known silent changes in readers this
+file's owner may not edit are strict xfails naming the owner: they fail again (XPASS) once fixed, and any new
+one fails the run."""
 from __future__ import annotations
 
 import json

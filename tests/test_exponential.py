@@ -17,10 +17,14 @@ from ffrf_advisor.terms import FULL
 from ffrf_advisor.verify import runner
 from ffrf_advisor.verify.measures import worst
 from ffrf_advisor.verify.reference import scene_errors
-from ffrf_advisor.verify.scenes import SCENES, SceneOptions, make_scenes
+from ffrf_advisor.verify.scenes import make_scenes
+from ffrf_advisor.zoo import FAMILIES, TEST_SEEDS_FROM, zoo_body
 
 DIR = Path(__file__).resolve().parent.parent / "sample_bodies"
 SAMPLES = ("beam", "carbody", "conrod", "genstruct1", "genstruct2", "plate")
+# the scenes the slow comparisons run: modes started deflected, a prescribed spin ramp, a torque pulse (about each
+# stable axis); mode-release and minor-axis add the CI minutes without another kind of motion
+COMPARED = ("free-spin", "spin-up", "torque-pulse")
 NO_LOADS = np.array([0.0, 0.0, 0.0, np.inf, 0.0, 0.0, 0.0, 0.0, 0.0])  # sim.loads.LoadProgram().packed()
 
 
@@ -98,19 +102,44 @@ def _scenes(name: str, fraction: float):
     speed = fraction * (float(np.min(s_crit)) if s_crit is not None and np.isfinite(s_crit).any()
                         else 2 * np.pi * float(body.frequencies_hz[0]))
     a = analyze(body, Options(situation=Situation(w_op=speed)))
-    scenes = make_scenes(list(SCENES), a)
+    scenes = make_scenes(list(COMPARED), a)
     return runner.for_scenes(a, scenes), scenes
 
 
-@pytest.mark.slow  # about a minute: every scene of the six samples at three speeds, both references
+@pytest.mark.slow  # minutes: three kinds of scene of the six samples at three speeds, both references
 @pytest.mark.parametrize("name", SAMPLES)
 @pytest.mark.parametrize("fraction", [0.01, 0.1, 0.5])
 def test_the_exponential_reference_matches_dop853s_on_the_samples(name, fraction):
-    """The new reference (exponential, rtol 1e-10) against the former (DOP853, rtol 1e-10) in every scene of every
-    sample at 0.01, 0.1 and 0.5 of its smallest s_crit: response errors within a tenth of verify's default
-    tolerance (1e-3, the self-check's limit), so the verdicts cannot change."""
-    a, scenes = _scenes(name, fraction)
+    """The new reference (exponential, rtol 1e-10) against the former (DOP853, rtol 1e-10) in the COMPARED scenes of
+    every sample at 0.01, 0.1 and 0.5 of its smallest s_crit: response errors within a tenth of verify's default
+    tolerance (1e-3, the self-check's limit), so the verdicts cannot change, or both without a verdict
+    (``_same_judgement``; bench_verify part 7 runs every scene: within 1.6e-7)."""
+    _same_judgement(*_scenes(name, fraction))
+
+
+def _same_judgement(a, scenes) -> None:
+    """Each scene's exponential reference within 1e-3 (a tenth of the default tolerance) of DOP853's by the response
+    errors; where not, neither self-converges (each differs from its own run at 1e-12 by more than 1e-3: chaotic
+    motion), so both give no verdict there."""
     for sc in scenes:
         m = runner.reference_model(a, sc)
         new, old = (runner.run_scene(m, sc, integ, rtol=1e-10) for integ in (EXPONENTIAL, "dop853"))
-        assert not new.failed and worst(scene_errors(a, new, old), "response") <= 1e-3, sc.label
+        assert not new.failed, sc.label
+        if worst(scene_errors(a, new, old), "response") > 1e-3:
+            for run in (new, old):
+                tight = runner.run_scene(m, sc, run.method, rtol=1e-12)
+                assert worst(scene_errors(a, run, tight), "response") > 1e-3, (sc.label, run.method)
+
+
+@pytest.mark.slow  # minutes: a body of every zoo family built, run through the COMPARED scenes twice
+@pytest.mark.parametrize("family", FAMILIES)
+def test_the_exponential_reference_matches_dop853s_on_a_body_of_every_zoo_family(family):
+    """As on the samples, for the first test-set body of each zoo family at 0.1 of its smallest s_crit (the strip's
+    free spins tumble: neither reference self-converges, 0.09-0.12 against their runs at 1e-12)."""
+    from ffrf_advisor.significance import softening_speeds
+    body = zoo_body(family, TEST_SEEDS_FROM)
+    s_crit = softening_speeds(body)
+    speed = 0.1 * (float(np.min(s_crit)) if np.isfinite(s_crit).any() else 2 * np.pi * float(body.frequencies_hz[0]))
+    a = analyze(body, Options(situation=Situation(w_op=speed)))
+    scenes = make_scenes(list(COMPARED), a)
+    _same_judgement(runner.for_scenes(a, scenes), scenes)

@@ -87,6 +87,9 @@ def check_reader_options(path, options: dict, fmt: str | None = None) -> None:
         raise FFRFError(f"{path}: --{'/--'.join(wrong)} apply to {WHERE[READER_OPTIONS[wrong[0]]]} only")
 
 
+CHECKS_ITSELF = ("calculix", "meshio", "vtu")  # readers that call consistency.checked with what only they see
+
+
 def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> FlexibleBody:
     """Read a body from any registered format.
 
@@ -110,7 +113,11 @@ def read_body(path: str | os.PathLike, fmt: str | None = None, **options) -> Fle
     except UNFORESEEN as e:
         raise BodyFileError(path, "file", f"a readable {f.name} file",
                             f"{type(e).__name__}: {str(e)[:160]}") from None
-    return flexible_modes_in_order(physically_possible(in_range(body, path), path), path)
+    body = flexible_modes_in_order(physically_possible(in_range(body, path), path), path)
+    if body.fe is not None and f.name not in CHECKS_ITSELF:
+        from ..consistency import checked
+        checked(body, path, assemble=f.name != "ffrf-h5")
+    return body
 
 
 LARGEST = 1e150  # |value| above which products of two numbers (inertia, energies) overflow

@@ -61,8 +61,9 @@ WITHOUT = {"calculix-no-dat": ".dat"}  # reader -> a sibling left out of its fol
 # (reader, case) -> what changes silently and who owns the fix (files this fuzzer's owner may not edit)
 KNOWN: dict[tuple[str, int], str] = {
     ("ffrf-h5", 168): "modes/eigenvalues[2] x10 rewritten through h5py (Fletcher-32 holds) in a file that stores K: "
-                      "analyze, info and convert read it (level IV -> II) with no check against K's Rayleigh "
-                      "quotients nor against the cache's SHA-256; owner: io/ffrf_h5.py",
+                      "convert refuses it (Rayleigh quotients), analyze and info read the nodal summary and accept "
+                      "it (level IV -> II): no check of the eigenvalues against the summary's source; owner: "
+                      "io/ffrf_h5.py",
 }
 
 

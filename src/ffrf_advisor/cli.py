@@ -849,7 +849,7 @@ def verify_command(body: Path = typer.Argument(..., help="Body file."),
                    integrator: str = typer.Option("dop853", "--integrator", help=f"One of {', '.join(INTEGRATORS)}."),
                    step: Optional[float] = typer.Option(None, "--step", help="Step [s] of a fixed-step integrator."),
                    rtol: float = typer.Option(1e-8, "--rtol", help="Relative tolerance of an adaptive integrator."),
-                   repeats: int = typer.Option(3, "--repeat", help="Timed repeats (serial; the minimum counts)."),
+                   repeats: int = typer.Option(1, "--repeat", help="Runs per term set, timed serially, the minimum counting (1: costs from each set's compiled seconds per evaluation)."),
                    axis: Optional[int] = typer.Option(None, "--axis", help="Principal axis of the scenes (1-3; "
                                                                            "default: each rigidly stable principal "
                                                                            "axis)."),

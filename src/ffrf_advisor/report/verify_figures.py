@@ -97,7 +97,7 @@ def work_precision_chart(points, front, title: str):
     ax.axhline(top, color="r", lw=0.5, ls=":")
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xlabel("wall time [s] (minimum over repeats, serial)")
+    ax.set_xlabel("wall time [s] (one run; --repeat: the minimum, serial)")
     ax.set_ylabel("worst relative error against the reference [-]")
     ax.set_title(title)
     integrators = list(dict.fromkeys(integ for _, integ in groups))

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from ..io import sha256
+from ..sim.integrate import EXPONENTIAL
 from ..units import TIME
 from ..verify.runner import REF_RTOL, SELF_CHECK, Verdict
 from ..verify.measures import worst
@@ -50,8 +51,8 @@ def _scene(st: Study, s: Scene, per_s: float) -> dict:
              "converged": not verdict.unjudged}
     return {"name": s.name, "label": s.label, "axis": s.axis + 1, "duration": s.duration,
             "speed_rad_s": s.speed / per_s, "damping": s.damping, "text": s.text,
-            "reference": {"integrator": "dop853", "rtol": REF_RTOL, "self_error": ref.self_error,
-                          "self_check": check, "wall_s": ref.wall_s,
+            "reference": {"integrator": EXPONENTIAL, "rtol": REF_RTOL, "self_error": ref.self_error,
+                          "self_check": check, "self_checked": ref.self_checked, "wall_s": ref.wall_s,
                           "rhs_evaluations": ref.run.nfev, "self_check_evaluations": ref.self_check_nfev},
             "verdict": _verdict(verdict)}
 
@@ -61,8 +62,8 @@ def _studies(st) -> dict:
     if st.work_precision is None:
         return {"work_precision": None, "stability": None, "campbell": None}
     ver = st.verification
-    return {"work_precision": {"scene": ver.scenes[0].label, "timing": "wall time, minimum over repeats, taken "
-                               "serially on this machine", "points": st.work_precision,
+    return {"work_precision": {"scene": ver.scenes[0].label, "timing": "wall time of one run (the minimum over "
+                               "--repeat runs where asked), serially on this machine", "points": st.work_precision,
                                "pareto": pareto(st.work_precision)},
             "stability": st.stability,
             "campbell": _campbell(st.campbell)}

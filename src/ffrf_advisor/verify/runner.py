@@ -272,7 +272,8 @@ def _runs(work: _Work, jobs: int, progress, untimed) -> tuple[dict, list[SetResu
     n = len(work.scenes) * (1 + len(work.sets))
     pairs = [(i, j) for i in range(len(work.scenes)) for j in range(len(work.sets))]
     try:
-        with mapper(jobs) as map_, threads(min(2, cpus())) as threaded:  # its threads start with its map
+        tasks = max(len(work.scenes), len(pairs))  # no more workers than the widest of its maps hands out
+        with mapper(jobs, tasks=tasks) as map_, threads(min(2, cpus())) as threaded:  # its threads start with its map
             # The references and their checks time nothing: beside one job they take two threads (DOP853 releases
             # the GIL).
             untimed_map = threaded if jobs <= 1 else map_

@@ -70,5 +70,5 @@ def run_sweep(tasks: list[Task], jobs: int = 1, scheduler: str | None = None, ro
         from distributed import Client  # optional extra: pip install 'ffrf-advisor[distributed]'
         with Client(scheduler) as client:
             return client.gather(client.map(row, tasks, pure=False))
-    with mapper(jobs) as map_:
+    with mapper(jobs, tasks=len(tasks)) as map_:
         return list(map_(row, tasks))

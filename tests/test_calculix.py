@@ -443,3 +443,15 @@ def test_a_free_run_must_have_six_rigid_modes(jobs, tmp_path):
     frd = _damaged(jobs, tmp_path, ".frd", copied)
     (tmp_path / "d.dat").unlink()
     _one_line(_analyze(frd), "d.frd", "six rigid modes of a free body", "5 (modes 1, 3, 4, 5, 6)")
+
+
+@pytest.mark.parametrize("job", ["ascii", "binary"])
+@pytest.mark.parametrize("block", [b"-4  STRESS", b"-4  DISP"])
+def test_a_damaged_result_block_name_is_refused(jobs, tmp_path, job, block):
+    """Found by the differential fuzzer: one bit of 'STRESS' in mode 7's block ('STRDSS') left the body without
+    modal stresses (q_max from --q-cap, another term set, a warning about deflection that named no damage); every
+    mode must have every block the others have."""
+    def renamed(data: bytes) -> bytes:
+        at = data.index(block, data.index(b"1PMODE                         7"))
+        return data[:at] + block[:-1] + bytes([block[-1] ^ 1]) + data[at + len(block):]
+    _one_line(_analyze(_damaged(jobs, tmp_path, ".frd", renamed, job)), "d.frd", "for mode 7")

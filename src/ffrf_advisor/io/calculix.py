@@ -134,16 +134,29 @@ def _element_nodes(frd: Frd):
     return lambda number: table.get(number, [])
 
 
+def _blocks_of_every_mode(frd: Frd) -> None:
+    """CalculiX writes the same result blocks for every mode: a mode without one another mode has (a damaged
+    block name, 'STRESS' read as 'STRDSS') is an error naming the block and the mode, never a body without it."""
+    modes = sorted({m for m, _ in frd.results if m > 0})
+    names = [name for m, name in frd.results if m > 0]
+    for name in sorted(set(names), key=lambda n: (-names.count(n), n)):  # the blocks most modes have first
+        missing = [m for m in modes if (m, name) not in frd.results]
+        if missing:
+            frd.fail(name, f"a {name} block for every mode, as CalculiX writes them",
+                     f"none for mode {missing[0]} (a damaged block name or a cut file)")
+
+
 def _modes(frd: Frd, index: dict, stem: Path):
     """Modes present, eigenvalues of all of them with their source, nodal DISP (n, 3, m) and von Mises."""
-    modes = sorted(m for m, name in frd.results if name == "DISP")
+    modes = sorted(m for m, name in frd.results if name == "DISP" and m > 0)  # mode 0: another step's results
     if not modes:
         frd.fail("DISP", "mode shapes (*NODE FILE or *NODE OUTPUT with U)", "none")
+    _blocks_of_every_mode(frd)
     check_mode_numbers(frd.path, "DISP mode numbers", modes, first=1)
     lam, source = eigenvalues(frd, modes, stem.with_suffix(".dat"))
     Phi = np.stack([_nodal(frd, index, *frd.results[(m, "DISP")], "DISP")[:, :3] for m in modes], axis=-1)
     stress = None
-    if all((m, "STRESS") in frd.results for m in modes):
+    if (modes[0], "STRESS") in frd.results:
         stress = np.stack([von_mises(_tensor(_nodal(frd, index, *frd.results[(m, "STRESS")], "STRESS")))
                            for m in modes], axis=-1)
     return modes, lam, source, Phi, stress

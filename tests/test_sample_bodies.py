@@ -123,8 +123,31 @@ def test_conrod_eyes_are_round_and_its_volume_is_the_drawing():
 
 def test_boundary_faces_of_a_box_mesh():
     for cell_type, width in (("hexahedron", 4), ("hexahedron20", 8)):
-        polys = boundary_polygons(box_mesh([3.0, 2.0, 1.0], [3, 2, 1], cell_type))
+        (polys,) = boundary_polygons(box_mesh([3.0, 2.0, 1.0], [3, 2, 1], cell_type))
         assert polys.shape == (2 * (3 * 2 + 2 * 1 + 1 * 3), width)
+
+
+@pytest.mark.parametrize("kind", ["tetra", "tetra10", "wedge", "wedge15", "pyramid", "pyramid13"])
+def test_boundary_faces_of_a_split_box_cover_its_surface_once(kind):
+    """Tetrahedra, wedges and pyramids (mixed with tetrahedra) of a box: the outer faces' areas add up to the
+    box's surface (each inner face, shared by two cells, left out)."""
+    from ffrf_advisor.fe.split import box_split_mesh
+    mesh = box_split_mesh([3.0, 2.0, 1.0], [3, 2, 1], kind)
+    area = 0.0
+    for group in boundary_polygons(mesh):
+        corners = mesh.points[group[:, ::2] if group.shape[1] > 4 else group]
+        fan = np.cross(corners[:, 1:-1] - corners[:, :1], corners[:, 2:] - corners[:, :1])  # a planar polygon's fan
+        area += np.linalg.norm(fan.sum(axis=1), axis=1).sum() / 2
+    assert area == pytest.approx(2 * (3 * 2 + 2 * 1 + 1 * 3), rel=1e-12)
+
+
+def test_a_picture_of_a_body_of_quadratic_wedges_draws(tmp_path):
+    from ffrf_advisor.fe.material import STEEL
+    from ffrf_advisor.fe.split import box_split_mesh
+    from ffrf_advisor.fe_body import modal_body
+    body = modal_body(box_split_mesh([60.0, 20.0, 10.0], [3, 1, 1], "wedge15"), STEEL, 3, name="wedges")
+    body_picture(body, tmp_path / "w.png", modes=2)
+    assert (tmp_path / "w.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_body_picture_writes_a_png(tmp_path, shipped):

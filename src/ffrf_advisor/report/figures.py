@@ -12,41 +12,37 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
 from ..body import FlexibleBody  # noqa: E402
 from ..errors import FFRFError  # noqa: E402
-from ..fe.elements import EDGES, element_type  # noqa: E402
+from ..fe.elements import element_faces  # noqa: E402
 from ..fe.mesh import Mesh  # noqa: E402
 from ..io.atomic import atomic_path  # noqa: E402
 
-# Faces of a VTK hexahedron by corner index, outward normals.
-_HEX_FACES = ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))
 DEFLECTION_SHOWN = 0.06  # largest drawn deflection / largest body dimension
 
 
-def boundary_polygons(mesh: Mesh) -> np.ndarray:
-    """Node indices (nfaces, 4 or 8) of the outer faces; quadratic faces list corner, mid-side, corner, ..."""
-    polys = []
+def boundary_polygons(mesh: Mesh) -> list[np.ndarray]:
+    """The outer faces as rings of node indices, one array (nfaces, k) per ring length k: 3 or 4 corners, or 6
+    or 8 for quadratic faces (corner, mid-side, corner, ...; fe.elements.element_faces). A face is outer when
+    no other face of the mesh has its corners: that holds across cell types (a hexahedron against a pyramid)."""
+    rings: dict[int, list[np.ndarray]] = {}
     for cell_type, conn in mesh.cells.items():
-        quadratic = element_type(cell_type).n_nodes > 8
-        for face in _HEX_FACES:
-            ring = []
-            for a, b in zip(face, face[1:] + face[:1]):
-                ring.append(conn[:, a])
-                if quadratic:
-                    edge = EDGES.index((a, b)) if (a, b) in EDGES else EDGES.index((b, a))
-                    ring.append(conn[:, 8 + edge])
-            polys.append(np.stack(ring, axis=1))
-    polys = np.concatenate(polys)
-    keys = np.sort(polys[:, ::2] if polys.shape[1] == 8 else polys, axis=1)
-    _, inverse, counts = np.unique(keys, axis=0, return_inverse=True, return_counts=True)
-    return polys[counts[inverse.ravel()] == 1]
+        for face in element_faces(cell_type):
+            rings.setdefault(len(face), []).append(conn[:, face])
+    groups = [np.concatenate(parts) for _, parts in sorted(rings.items())]
+    keys = [np.sort(g[:, ::2] if g.shape[1] > 4 else g, axis=1) for g in groups]
+    padded = np.concatenate([np.pad(k, ((0, 0), (0, 4 - k.shape[1])), constant_values=-1) for k in keys])
+    _, inverse, counts = np.unique(padded, axis=0, return_inverse=True, return_counts=True)
+    outer = np.split(counts[inverse.ravel()] == 1, np.cumsum([len(g) for g in groups])[:-1])
+    return [g[keep] for g, keep in zip(groups, outer) if keep.any()]
 
 
-def _draw(ax, points: np.ndarray, polys: np.ndarray, colour: np.ndarray | None, title: str) -> None:
-    faces = points[polys]
+def _draw(ax, points: np.ndarray, polys: list[np.ndarray], colour: np.ndarray | None, title: str) -> None:
+    faces = [face for group in polys for face in points[group]]
     coll = Poly3DCollection(faces, linewidths=0.15, edgecolors=(0, 0, 0, 0.35))
     if colour is None:
         coll.set_facecolor((0.75, 0.78, 0.85, 1.0))
     else:
-        coll.set_facecolor(plt.cm.viridis(colour[polys].mean(axis=1) / max(colour.max(), 1e-300)))
+        mean = np.concatenate([colour[group].mean(axis=1) for group in polys])
+        coll.set_facecolor(plt.cm.viridis(mean / max(colour.max(), 1e-300)))
     ax.add_collection3d(coll)
     lo, hi = points.min(axis=0), points.max(axis=0)
     span = np.maximum(hi - lo, 1e-3 * (hi - lo).max())

@@ -90,6 +90,18 @@ def test_a_changed_attribute_fails_the_cache_checksum(tmp_path, beam):
     refused(convert, str(path), "invariants@mass", "nodal sums")  # it reads the nodal data: they say more
 
 
+@pytest.mark.parametrize("dataset, factor", [("modes/eigenvalues", 0.25), ("stress/max", 100.0)])
+def test_per_mode_data_rewritten_through_hdf5_fail_their_sha256_on_the_cached_path(tmp_path, beam, dataset, factor):
+    """Eigenvalues x0.25 or stress/max x100 rewritten through h5py (Fletcher-32 recomputed, so it holds): the cached
+    path of info and analyze has no second copy of them, the per-mode digest catches them (issue 49)."""
+    path = written(tmp_path, beam)
+    with h5py.File(path, "r+") as f:
+        f[dataset][...] = f[dataset][...] * factor
+    info, analyze, _ = commands(path, tmp_path / "out.ffrf.h5")
+    refused(info, str(path), "checksums@per_mode_sha256")
+    refused(analyze, str(path), "checksums@per_mode_sha256")
+
+
 def test_nodal_data_changed_below_the_cache_tolerance_fail_their_sha256(tmp_path, beam):
     """One value of modes/Phi changed in its last bit through HDF5 (its chunk checksum rewritten): the caches agree
     with it to 1e-6 (ffrf_h5.CACHE_TOLERANCE), the SHA-256 of the nodal data does not; the cached path does not

@@ -59,12 +59,7 @@ READERS = {
 }
 WITHOUT = {"calculix-no-dat": ".dat"}  # reader -> a sibling left out of its folder
 # (reader, case) -> what changes silently and who owns the fix (files this fuzzer's owner may not edit)
-KNOWN: dict[tuple[str, int], str] = {
-    ("ffrf-h5", 168): "modes/eigenvalues[2] x10 rewritten through h5py (Fletcher-32 holds) in a file that stores K: "
-                      "convert refuses it (Rayleigh quotients), analyze and info read the nodal summary and accept "
-                      "it (level IV -> II): no check of the eigenvalues against the summary's source; owner: "
-                      "io/ffrf_h5.py",
-}
+KNOWN: dict[tuple[str, int], str] = {}  # (reader, case) -> why and owner; none left
 
 
 def damage(target: Path, data: bytes, kind: str, rng) -> None:

@@ -25,11 +25,15 @@ import numpy as np
 
 GROUP = "checksums"
 NODAL = ("mesh/points", "mass/", "modes/Phi", "rotary/")  # what the invariants and the nodal summary come from
-# /checksums@KEY: the groups whose attributes it covers and the group whose datasets it covers. The nodal groups'
-# attributes (CSR shapes) are checked against the nodal data they describe.
-SECTIONS = {"attributes_sha256": (("", "provenance", "material", GROUP), None),
-            "invariants_sha256": (("invariants",), "invariants"),
-            "nodal_summary_sha256": (("nodal_summary",), "nodal_summary")}
+# /checksums@KEY: the groups whose attributes it covers and the groups or datasets whose values it covers (a
+# cache section is left out where its group is). The nodal groups' attributes (CSR shapes) are checked against the
+# nodal data they describe. ``per_mode_sha256``: what every read takes besides the caches, each with no second
+# copy on the cached path (eigenvalues rewritten through h5py keep a valid Fletcher-32).
+SECTIONS = {"attributes_sha256": (("", "provenance", "material", GROUP), ()),
+            "per_mode_sha256": ((), ("modes/eigenvalues", "stress/max", "static_centrifugal", "geometric_stiffness")),
+            "invariants_sha256": (("invariants",), ("invariants",)),
+            "nodal_summary_sha256": (("nodal_summary",), ("nodal_summary",))}
+CACHES = ("invariants_sha256", "nodal_summary_sha256")  # sections a writer may leave out
 
 
 def is_nodal(name: str) -> bool:
@@ -110,7 +114,7 @@ def section_digests(f, read) -> dict[str, str]:
     than the read it guards (h5py makes an object per node)."""
     digests = {}
     for key, (groups, data) in SECTIONS.items():
-        if data and data not in f:
+        if key in CACHES and data[0] not in f:
             continue  # a cache left out: the reader computes it from the nodal data (``nodal_sha256``)
         h = hashlib.sha256()
         for name in groups:
@@ -118,11 +122,20 @@ def section_digests(f, read) -> dict[str, str]:
             for attr, value in sorted(obj.attrs.items()) if obj is not None else ():
                 if name != GROUP or attr == "nodal_sha256":
                     h.update(f"{name}@{attr}=".encode() + _attribute_bytes(value) + b";")
-        for name, obj in sorted(f[data].items()) if data else ():
+        for name, obj in _datasets(f, data):
             array = np.asarray(read(obj))
-            h.update(f"{data}/{name}{array.shape}=".encode() + canonical(array).data)
+            h.update(f"{name}{array.shape}=".encode() + canonical(array).data)
         digests[key] = h.hexdigest()
     return digests
+
+
+def _datasets(f, paths):
+    """(name, dataset) of each path present: a dataset, or every dataset of a group (names sorted)."""
+    for path in paths:
+        obj = f.get(path)
+        if obj is None:
+            continue
+        yield from ((f"{path}/{n}", o) for n, o in sorted(obj.items())) if hasattr(obj, "items") else ((path, obj),)
 
 
 def _attribute_bytes(value) -> bytes:

@@ -148,3 +148,18 @@ def test_the_headlines_of_info_and_analyze_show_mass_and_density():
     assert info.exit_code == analyze.exit_code == 0
     assert "mass      6.280000e-03 t; apparent density 7850 kg/m^3 (equivalent box)" in info.stdout
     assert analyze.stdout.splitlines()[2] == "body: mass 0.00628 t, apparent density 7850 kg/m^3 (equivalent box)"
+
+
+def test_a_readers_warning_reaches_the_advice():
+    """A warning a reader left in the notes (a constrained run's rigid-mode count) is in analyze's and gate's
+    warnings, not only in info's provenance (issue 49)."""
+    from dataclasses import replace as _replace
+
+    from ffrf_advisor.analysis import analyze
+    from ffrf_advisor.io import read_body
+    from pathlib import Path
+    beam = read_body(Path(__file__).resolve().parents[1] / "sample_bodies" / "beam.ffrf.h5")
+    note = "warning: 5 rigid modes instead of six (modes 1-5): the body is constrained"
+    body = _replace(beam, provenance=beam.provenance.with_note(note))
+    assert f"source: {note}" in analyze(body).advice.warnings
+    assert not any(w.startswith("source:") for w in analyze(beam).advice.warnings)

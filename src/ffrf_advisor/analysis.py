@@ -7,7 +7,7 @@ import numpy as np
 
 from .amplitudes import Amplitudes, q_max
 from .body import FlexibleBody
-from .checks import Check, check_warnings, density_warnings, run_checks
+from .checks import Check, check_warnings, density_warnings, run_checks, source_warnings
 from .errors import FFRFError
 from .guidelines import Advice, advise
 from .significance import Significance, significance
@@ -37,5 +37,6 @@ def analyze(body: FlexibleBody, options: Options = Options()) -> Analysis:
     except FloatingPointError as e:
         raise FFRFError(f"{body.name}: analysis: expected numbers of physical size in the body and the options "
                         f"(--speed, --q-max, --sigma-allow, --q-cap), got {e}") from None
-    advice = replace(advice, warnings=check_warnings(list(checks)) + density_warnings(body) + advice.warnings)
+    advice = replace(advice, warnings=source_warnings(body) + check_warnings(list(checks)) + density_warnings(body)
+                     + advice.warnings)
     return Analysis(body, options, amp, sig, advice, checks)

@@ -220,6 +220,12 @@ def _dims(a: np.ndarray) -> str:
     return " x ".join(f"{x:.3g}" for x in a)
 
 
+def source_warnings(body: FlexibleBody) -> tuple[str, ...]:
+    """The warnings a reader left in the provenance notes (``warning:`` in a note: a constrained run's rigid-mode
+    count, a mass that differs from the code's own), so that the advice carries them, not only ``info``."""
+    return tuple(f"source: {note}" for note in body.provenance.notes if "warning:" in note)
+
+
 def check_warnings(checks: list[Check]) -> tuple[str, ...]:
     """One warning per failed check: what failed, by how much, and the precision assumed."""
     return tuple(f"check {c.name} failed: {c.value:.3g} against {c.tolerance:.1e} ({c.assumption}; source data "

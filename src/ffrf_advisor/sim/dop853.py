@@ -116,11 +116,16 @@ def _stage(rhs, t, y, h, K, s, model, prog, fext, scratch, ys):
 
 @inline
 def _error_norm(K, h, scale, a5, a3):
-    """Hairer's combined estimate: |h| e5^2 / sqrt((e5^2 + 0.01 e3^2) n), e5 and e3 in the scale's norm (a5, a3:
-    workspace)."""
-    n = scale.shape[0]
+    """Hairer's combined estimate of the stages K (a5, a3: workspace for the two embedded estimates)."""
     _combine(E5, K, a5)
     _combine(E3, K, a3)
+    return _combined_norm(h, scale, a5, a3)
+
+
+@inline
+def _combined_norm(h, scale, a5, a3):
+    """|h| e5^2 / sqrt((e5^2 + 0.01 e3^2) n) of the estimates a5, a3, e5 and e3 in the scale's norm."""
+    n = scale.shape[0]
     e5, e3 = 0.0, 0.0
     for i in range(n):
         e5 += (a5[i] / scale[i]) ** 2

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from .dop853 import (A, B, C, D, E3, E5, EXPONENT, MAX_FACTOR, MIN_FACTOR, NOT_FINITE, OK, OVER_BUDGET, SAFETY,
-                     STAGES, TOO_SMALL, _combine, _rms, _sample)
+                     STAGES, TOO_SMALL, _combine, _combined_norm, _rms, _sample)
 from .kernels import HUGE, bare, inline, jit, rhs_loaded as _f, store_row
 from .model import N_ROT
 
@@ -187,18 +187,11 @@ def _stage(rhs, t, z, h, K, s, Ep, Em, shift, model, prog, fext, scratch, V, Y):
 @inline
 def _error_norm(K, h, scale, Eh, a5, a3):
     """Hairer's combined estimate (sim.dop853._error_norm) of the v-frame estimates carried to y by exp(h L)."""
-    n = scale.shape[0]
     _combine(E5, K, a5)
     _combine(E3, K, a3)
     _carry(Eh, a5, a5)
     _carry(Eh, a3, a3)
-    e5, e3 = 0.0, 0.0
-    for i in range(n):
-        e5 += (a5[i] / scale[i]) ** 2
-        e3 += (a3[i] / scale[i]) ** 2
-    if e5 == 0.0 and e3 == 0.0:
-        return 0.0
-    return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * n)
+    return _combined_norm(h, scale, a5, a3)
 
 
 @inline

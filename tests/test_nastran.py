@@ -127,11 +127,11 @@ def test_a_body_from_a_run_is_written_read_and_reported(tmp_path):
     assert "no solid cells to draw" in (tmp_path / "n.html").read_text()
 
 
-def _write_op2(path, points, lam, T, R=None, body=None, frame=None, deck=None) -> None:
+def _write_op2(path, points, lam, T, R=None, body=None, frame=None, deck=None, clamped=None) -> None:
     """A SOL 103 run as Nastran writes it, with pyNastran's OP2 writer: GRIDs (with ``frame`` as every grid's CD,
     the modes given in it), the CHEXA20 solid of ``body`` if given (PSOLID, MAT1 with rho), eigenvalues ``lam``
     and translations ``T`` and rotations ``R`` (n, 3, nm) in basic, float32. With ``deck`` the geometry goes
-    to that input deck instead of the OP2."""
+    to that input deck instead of the OP2. ``clamped``: a grid held by an SPC1 (a clamped run's model)."""
     from cpylog import SimpleLogger
     from pyNastran.op2.op2_geom import OP2Geom
     from pyNastran.op2.tables.oug.oug_eigenvectors import RealEigenvectorArray
@@ -144,6 +144,8 @@ def _write_op2(path, points, lam, T, R=None, body=None, frame=None, deck=None) -
         model.add_cord2r(7, [0.0, 0.0, 0.0], F[:, 2], F[:, 0])
     for i, x in enumerate(points):
         model.add_grid(i + 1, x, cd=0 if frame is None else 7)
+    if clamped is not None:
+        model.add_spc1(1, "123456", [clamped])
     if body is not None:
         model.add_mat1(1, body.fe.material.E, None, body.fe.material.nu, rho=body.fe.material.rho)
         model.add_psolid(1, 1)
@@ -339,8 +341,9 @@ def test_a_mass_off_its_grid_in_maax_becomes_a_node_that_moves_with_it_exactly()
     L = np.column_stack([np.eye(3), -np.cross(np.eye(3), arm)])  # (3 x 6): its velocity from node 3's six
     M[18:24, 18:24] += m * L.T @ L
     body = _frame_body(_clamped_run(points, K, M, K.shape[0] - 6), K, M)
-    notes = " ".join(body.provenance.notes)
-    assert "1 grids' mass off the grid" in notes and "warning" not in notes
+    warnings = [n for n in body.provenance.notes if "warning" in n]
+    assert "1 grids' mass off the grid" in " ".join(body.provenance.notes)
+    assert warnings == ["warning: 0 rigid modes instead of six (modes none): the run is constrained"]  # the clamp's
     mass, moments = _rigid_inertia(M, points)
     assert body.mass == pytest.approx(mass, rel=1e-13)
     assert np.allclose(np.linalg.eigvalsh(body.I0), moments, rtol=1e-12)
@@ -360,7 +363,7 @@ def test_a_mass_with_couplings_the_body_model_cannot_hold_is_reported():
 def test_a_clamped_run_with_the_free_bodys_punched_matrices_is_analysed_through_the_files(tmp_path):
     points, K, M = _space_frame()
     run = _clamped_run(points, K, M, 12)
-    _write_op2(tmp_path / "frame.op2", points, run.eigenvalues, run.T, run.R)
+    _write_op2(tmp_path / "frame.op2", points, run.eigenvalues, run.T, run.R, clamped=1)
     refused = runner.invoke(app, ["info", str(tmp_path / "frame.op2")])
     assert refused.exit_code == 2 and "MAAX and KAAX beside it" in refused.output
     _write_punch(tmp_path / "frame.pch", {"MAAX": sp.csr_array(M), "KAAX": sp.csr_array(K)})
@@ -376,7 +379,7 @@ def test_a_clamped_run_with_the_free_bodys_punched_matrices_is_analysed_through_
 def test_damaged_punch_files_end_in_one_line(tmp_path):
     points, K, M = _space_frame()
     run = _clamped_run(points, K, M, 12)
-    _write_op2(tmp_path / "frame.op2", points, run.eigenvalues, run.T, run.R)
+    _write_op2(tmp_path / "frame.op2", points, run.eigenvalues, run.T, run.R, clamped=1)
     _write_punch(tmp_path / "clean.pch", {"MAAX": sp.csr_array(M), "KAAX": sp.csr_array(K)})
     data, rng, refused = (tmp_path / "clean.pch").read_bytes(), np.random.default_rng(12), 0
     for _ in range(12):
@@ -396,7 +399,7 @@ def test_a_punch_beside_an_op2_survives_hundreds_of_damaged_copies(tmp_path):
     by the harness; only valid bodies and one-line errors pass."""
     points, K, M = _space_frame()
     run = _clamped_run(points, K, M, 12)
-    _write_op2(tmp_path / "frame.op2", points, run.eigenvalues, run.T, run.R)
+    _write_op2(tmp_path / "frame.op2", points, run.eigenvalues, run.T, run.R, clamped=1)
     _write_punch(tmp_path / "frame.pch", {"MAAX": sp.csr_array(M), "KAAX": sp.csr_array(K)})
     done = subprocess.run([sys.executable, str(Path(__file__).parent / "fuzz_readers.py"), str(tmp_path / "frame.pch"),
                            str(PUNCH_CASES), "20261124", json.dumps({"_read": "frame.op2"})],

@@ -20,10 +20,10 @@ import scipy.sparse as sp
 from ..body import FlexibleBody, ModalFE, NodalRotary, Provenance
 from ..errors import BodyFileError, FFRFError
 from ..fe.assembly import full_mass
-from ..fe.modal import N_RIGID, RIGID_HZ, mode_signs, rigid_eigenvalues
+from ..fe.modal import N_RIGID, mode_signs
 from ..fe.mesh import Mesh
 from ..transform import free_surface_ritz
-from . import guard, nastran_dmig, nastran_props
+from . import guard, nastran_checks, nastran_dmig, nastran_props
 from .nastran_modes import NastranModes
 from .nastran_mass import (NodalMass, assembled_mass, generalized_mass_error, modes_with_extra_nodes,
                            rotary_share)
@@ -71,7 +71,7 @@ def _parse_and_assemble(path, pch: str | None, deck: str | None, free_free: bool
     run = _modes(path, m)
     mats = None if pch is None else nastran_dmig.read(pch, run.grids, _frames(path, m, run.grids))
     if free_free:
-        _require_free_free(path, run.eigenvalues, mats)
+        _require_free_free(path, run, mats)
     assembled = mats is None or mats.M is None
     mass = assembled_mass(path, m, run) if assembled else nastran_dmig.nodal_form(mats.M, run.points, pch)
     mass.notes += nastran_props.checked(path, m, mass, run.points, assembled)
@@ -86,7 +86,8 @@ def _geometry_from_deck(m, deck: str) -> None:
     check_file_size(deck, DECK_FACTOR)
     geometry = quietly(deck, "an input deck pyNastran can read with its INCLUDE files", read_bdf, deck, xref=True,
                        validate=False, punch=not _has_bulk_section(deck))
-    for name in ("nodes", "coords", "elements", "masses", "properties", "materials", "params"):
+    for name in ("nodes", "coords", "elements", "masses", "properties", "materials", "params", "spcs", "spcadds",
+                 "suport", "suport1"):
         setattr(m, name, getattr(geometry, name))
 
 
@@ -107,6 +108,7 @@ def _modes(path, m) -> NastranModes:
     data = np.asarray(ev.data, dtype=float)[:, grid, :]  # (nm, n, 6) in each grid's CD frame
     lam = np.asarray(ev.eigns, dtype=float)
     table = next(iter(m.eigenvalues.values()), None)
+    nastran_checks.check_tables(path, ev, table)
     genmass = np.ones(len(lam)) if table is None else np.asarray(table.generalized_mass, dtype=float)
     if len(genmass) != len(lam) or np.any(genmass <= 0):
         raise BodyFileError(path, "eigenvalue table", f"{len(lam)} positive generalised masses")
@@ -115,7 +117,7 @@ def _modes(path, m) -> NastranModes:
     return NastranModes(gids, points, lam, genmass, np.moveaxis(data[:, :, :3], 0, 2),
                         np.moveaxis(data[:, :, 3:], 0, 2), None if stress is None else stress.max(axis=0),
                         dict(sorted(Counter(e.type for e in (*m.elements.values(), *m.masses.values())).items())),
-                        stress)
+                        stress, *nastran_checks.constraints(m))
 
 
 def _to_basic(path, m, gids: np.ndarray, data: np.ndarray):
@@ -145,15 +147,20 @@ def _frames(path, m, gids: np.ndarray) -> np.ndarray:
     return F
 
 
-def _require_free_free(path, lam: np.ndarray, mats: nastran_dmig.Matrices | None) -> None:
-    count = int(rigid_eigenvalues(lam).sum())
-    if count == N_RIGID or (mats is not None and mats.M is not None and mats.K is not None):
+def _require_free_free(path, run: NastranModes, mats: nastran_dmig.Matrices | None) -> None:
+    """A run without six rigid modes (by their shapes) refused unless the free body's MAAX and KAAX came with it;
+    a run of a model with SPC (without SUPORT) refused so before its modes are looked at."""
+    if mats is not None and mats.M is not None and mats.K is not None:
         return
-    why = ("the run is constrained (SPCs or a grounded model): rerun SOL 103 without constraints"
-           if count < N_RIGID else "the model is not connected (a mechanism)")
+    count = None if run.rigid_expected is None else int(nastran_checks.rigid(path, run)[0].sum())
+    if count == N_RIGID:
+        return
+    why = (f"the run is constrained ({run.constraints}): rerun SOL 103 without constraints"
+           if count is None or count < N_RIGID else "the model is not connected (a mechanism)")
     raise BodyFileError(path, "eigenvalues", "a free-free run with six rigid-body modes (theory section 1), or "
                         "the free body's MAAX and KAAX beside it (PARAM,EXTOUT,DMIGPCH) to transform the basis",
-                        f"{count} of {len(lam)} modes below {RIGID_HZ:g} Hz: {why}")
+                        f"{'?' if count is None else count} of {len(run.eigenvalues)} modes rigid (by their shapes): "
+                        f"{why}")
 
 
 def read(path, load_fe: bool = False) -> FlexibleBody:
@@ -166,10 +173,13 @@ def body_of(path, run: NastranModes, mass: NodalMass, mats: nastran_dmig.Matrice
     scaled by the generalised masses, the rotary nodes (theory 3b) kept apart, in the CoM principal frame."""
     notes = [f"Nastran {os.path.basename(str(path))}: {len(run.eigenvalues)} modes; units assumed t-mm-N-s",
              *mass.notes]
-    if int(rigid_eigenvalues(run.eigenvalues).sum()) != N_RIGID:
-        run, note = free_surface_run(path, run, mass, mats)
+    rigid, rigid_notes = nastran_checks.rigid(path, run)
+    notes += rigid_notes
+    if int(rigid.sum()) != N_RIGID:
+        run, note = free_surface_run(path, run, mass, mats, int(rigid.sum()))
         notes.append(note)
-    flex = ~rigid_eigenvalues(run.eigenvalues)
+        rigid = np.arange(len(run.eigenvalues)) < N_RIGID  # free_surface_run puts the six rigid modes first
+    flex = ~rigid
     points, T, R = modes_with_extra_nodes(run, mass)
     scale = 1 / np.sqrt(run.generalized_mass[flex])
     notes += _mass_notes(run, mass, flex)
@@ -196,7 +206,7 @@ def _mass_notes(run: NastranModes, mass: NodalMass, flex: np.ndarray) -> list[st
     share = rotary_share(run, mass)[flex]
     return [*([f"rotary inertia carries up to {share.max():.1%} of a mode's modal mass (mode {share.argmax() + 1})"]
               if share.max() > 0 else []),
-            f"six rigid modes dropped, the others scaled by their generalised masses; {mass.what} gives them "
+            f"the modes other than the rigid ones scaled by their generalised masses; {mass.what} gives them "
             f"within {error:.2g}"
             + ("" if error <= GENMASS_TOL else " (warning: more than float32 round-off: Nastran's mass differs, "
                                                "e.g. its default lumped mass of solids and shells, where "
@@ -226,13 +236,14 @@ def _matrix_notes(run: NastranModes, flex: np.ndarray, scale: np.ndarray, mass: 
     return notes
 
 
-def free_surface_run(path, run: NastranModes, mass: NodalMass, mats: nastran_dmig.Matrices | None) \
-        -> tuple[NastranModes, str]:
+def free_surface_run(path, run: NastranModes, mass: NodalMass, mats: nastran_dmig.Matrices | None,
+                     count: int) -> tuple[NastranModes, str]:
     """A run that is not free-free brought to the form of theory section 1 with the punched MAAX and KAAX:
     its modes M-orthogonalised against the 6-DOF rigid modes, the reduced eigenproblem solved (theory 4).
-    The result is six rigid modes and Ritz vectors of the free body, without modal stresses."""
+    The result is six rigid modes and Ritz vectors of the free body, without modal stresses; ``count``: the run's
+    rigid modes."""
     if mats is None or mats.M is None or mats.K is None:
-        _require_free_free(path, run.eigenvalues, mats)
+        _require_free_free(path, run, mats)
     residual = nastran_dmig.free_body_residual(mats.K, run.points)
     if residual > FREE_K_TOL:
         raise BodyFileError(mats.source, f"DMIG {nastran_dmig.STIFFNESS}", "the stiffness of the free body "
@@ -248,7 +259,7 @@ def free_surface_run(path, run: NastranModes, mass: NodalMass, mats: nastran_dmi
     out = NastranModes(run.grids, run.points, np.r_[np.zeros(N_RIGID), lam], np.ones(N_RIGID + k),
                        np.concatenate([rigid6[:, :3], S[:, :3]], axis=2),
                        np.concatenate([rigid6[:, 3:], S[:, 3:]], axis=2), None, run.element_types)
-    note = (f"not free-free ({int(rigid_eigenvalues(run.eigenvalues).sum())} of {nm} modes rigid): the modes "
+    note = (f"not free-free ({count} of {nm} modes rigid): the modes "
             f"brought to the form of theory 4 with {nastran_dmig.MASS} and {nastran_dmig.STIFFNESS}: {k} Ritz vectors "
             f"of the free body ({dropped} rigid or dependent dropped), as good as the run's modes span its modes; "
             "no modal stresses (their combination needs stress tensors)")

@@ -19,3 +19,5 @@ class NastranModes:
     sigma_max: np.ndarray | None  # (nm,) the largest of stress_nodal
     element_types: dict[str, int]
     stress_nodal: np.ndarray | None = None  # (n, nm) von Mises averaged at the grids
+    rigid_expected: int | None = None  # rigid modes the run's constraints give (None: not known)
+    constraints: str = "constraints not known"

@@ -21,10 +21,11 @@ import numpy as np
 from ..body import FlexibleBody, Provenance
 from ..errors import BodyFileError
 from ..fe.mesh import Mesh
-from ..fe.modal import N_RIGID, mode_signs, rigid_eigenvalues, rigid_modes
+from ..fe.modal import N_RIGID, mode_signs, rigid_modes
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from ..transform import free_surface_ritz
 from . import ansys_files, guard
+from .nastran_checks import rigid_modes_of
 from .ansys_fe import free_stiffness, mass_agreement, material_of, nodal_von_mises, scalar_mass
 from .ansys_files import AnsysRun
 from .ansys_units import UnitChoice, choose
@@ -66,14 +67,15 @@ def body_of(path, run: AnsysRun, units: str | None = None) -> FlexibleBody:
     mass_note = mass_agreement(run, Ms, choice.length, choice.mass)  # first: it refuses inverted elements
     material, material_note = material_of(run, choice.length, choice.mass)
     K, stiffness_note = free_stiffness(run, mesh, material)
-    lam, Phi, stress, modes_note = _modes(run, Ms, K, stiffness_note, choice)
+    rigid, rigid_notes = _rigid(run)
+    lam, Phi, stress, modes_note = _modes(run, rigid, Ms, K, stiffness_note, choice)
     n = len(run.points)
     notes = (f"MAPDL {os.path.basename(str(path))} with {os.path.basename(run.full)}: {len(run.eigenvalues)} modes, "
              f"{n} nodes, {', '.join(f'{v} {t}' for t, v in run.element_types.items())}; cells "
              f"{', '.join(f'{len(c)} {t}' for t, c in mesh.cells.items()) or 'none'}", choice.note, material_note,
              stiffness_note, modes_note, mass_note,
              "modal von Mises stress from the corner stresses, averaged at the nodes" if stress is not None else
-             "no modal stresses (no element stresses in the .rst)")
+             "no modal stresses (no element stresses in the .rst)", *rigid_notes)
     kept = None if K is None else material  # the static response needs the K the modes belong to
     body = fe_body(os.path.basename(str(path)).split(".")[0], mesh, Ms, Phi, lam,
                    Provenance(source=str(path), mass_matrix="consistent" if run.M.nnz > 3 * n else "lumped",
@@ -81,11 +83,22 @@ def body_of(path, run: AnsysRun, units: str | None = None) -> FlexibleBody:
     return body if kept is None else with_centrifugal_response(body)
 
 
-def _modes(run: AnsysRun, Ms, K, why: str, choice: UnitChoice):
-    """Eigenvalues, mass-normalised modes, nodal stresses and a note: the run's flexible modes when they are the
-    free body's (or, without K, when the run has the six rigid modes), else its modes brought to free-free form."""
-    flex = ~rigid_eigenvalues(run.eigenvalues)  # as for Nastran
-    count = int((~flex).sum())
+def _rigid(run: AnsysRun) -> tuple[np.ndarray, list[str]]:
+    """The run's rigid modes by their shapes (nastran_checks.rigid_modes_of): six for a run whose .full holds no
+    D constraint, any count (warned when not six) for one that does."""
+    held = int(run.constrained.sum())
+    where = (f"{held} DOFs held by D in {os.path.basename(run.full)}" if held else
+             f"no DOF held in {os.path.basename(run.full)}: a free run")
+    return rigid_modes_of(run.source, run.points, run.modes, run.eigenvalues, None if held else N_RIGID, where,
+                          "NSL (mode shapes)")
+
+
+def _modes(run: AnsysRun, rigid: np.ndarray, Ms, K, why: str, choice: UnitChoice):
+    """Eigenvalues, mass-normalised modes, nodal stresses and a note: the run's flexible modes (not ``rigid``) when
+    they are the free body's (or, without K, when the run has the six rigid modes), else its modes brought to
+    free-free form."""
+    flex = ~rigid
+    count = int(rigid.sum())
     if not flex.any():
         raise BodyFileError(run.source, "eigenvalues", "at least one flexible mode", "only rigid modes")
     residual = _eigen_residual(run, K, flex)

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from ..consistency import check_frequencies, check_mode_numbers
 from ..errors import BodyFileError, FFRFError
 from .ansys_cells import cells_of, refuse_unreadable
 from .limits import Budget
@@ -120,6 +121,7 @@ def _result(lib, rst: str, budget: Budget) -> AnsysRun:
     cells, rows = cells_of(rst, mesh.elem, routines, nodes)
     material = np.asarray(mesh.material_type, np.int64)
     frequencies = np.asarray(r.time_values, float)
+    check_sets(rst, r, frequencies)
     budget.take("NSL", 24.0 * len(nodes) * len(frequencies))
     modes = np.stack([_at_nodes(rst, nodes, *r.nodal_solution(i), f"NSL of mode {i + 1}")
                       for i in range(len(frequencies))], axis=-1)
@@ -135,6 +137,19 @@ def _result(lib, rst: str, budget: Budget) -> AnsysRun:
                     units=str(r._resultheader["units"]),
                     eigenvalues=np.sign(frequencies) * (2 * np.pi * frequencies) ** 2, modes=modes,
                     corner_stress=stress, M=empty, K=empty, constrained=np.zeros(0, bool))
+
+
+def check_sets(rst, r, frequencies: np.ndarray) -> None:
+    """The result sets' mode numbers (the substeps of the set table and of each set's solution header) count
+    1, 2, 3 ...; each set's solution header TIMFRQ is its frequency in the time table (one double, written twice).
+    """
+    table = np.asarray(r._resultheader["ls_table"], np.int64).reshape(-1, 3)
+    check_mode_numbers(rst, "result set table (substeps: mode numbers)", table[:, 1], first=1)
+    check_mode_numbers(rst, "solution headers (substeps: mode numbers)",
+                       [r._solution_header(i)["iter"] for i in range(len(frequencies))], first=1)
+    check_frequencies(rst, ("solution headers TIMFRQ", "the time table's frequencies"),
+                      np.abs([r.solution_info(i)["timfrq"] for i in range(len(frequencies))]),
+                      (2 * np.pi * frequencies) ** 2, None)
 
 
 def _name(routine: int) -> str:

@@ -52,11 +52,12 @@ def rigid(path, run: NastranModes) -> tuple[np.ndarray, list[str]]:
 
 
 def rigid_modes_of(path, points: np.ndarray, T: np.ndarray, lam: np.ndarray, expected: int | None,
-                   constraints: str) -> tuple[np.ndarray, list[str]]:
+                   constraints: str, field: str = "DISP") -> tuple[np.ndarray, list[str]]:
     """Which modes are rigid and notes naming them. A mode is rigid when its translations T (n, 3, nm) lie in the
     span of the six rigid motions of the nodes (theory 4: the part outside below RIGID_SHAPE), never by its
     eigenvalue alone; a rigid shape with a frequency, a zero frequency of a shape that is not rigid (a mechanism)
-    and a count other than ``expected`` (the constraints') are errors; a count other than six a warning."""
+    and a count other than ``expected`` (the constraints') are errors naming ``field`` (the modes' record in the
+    format's words); a count other than six a warning."""
     R = rigid_modes((points - points.mean(axis=0)) / max(float(np.ptp(points, axis=0).max()), 1e-300))
     S = T.reshape(-1, T.shape[2])
     outside = np.linalg.norm(S - R @ np.linalg.lstsq(R, S, rcond=None)[0], axis=0) \
@@ -66,11 +67,11 @@ def rigid_modes_of(path, points: np.ndarray, T: np.ndarray, lam: np.ndarray, exp
                          (zero & ~shape, "a rigid-body shape at zero frequency (not a mechanism)")):
         if bad.any():
             k = int(np.argmax(bad))
-            raise BodyFileError(path, "DISP", expects, f"mode {k + 1}: eigenvalue {lam[k]:.7g}, part of its shape "
+            raise BodyFileError(path, field, expects, f"mode {k + 1}: eigenvalue {lam[k]:.7g}, part of its shape "
                                 f"outside the rigid motions {outside[k]:.2g} (the shape or eigenvalue is damaged)")
     count, named = int(shape.sum()), ", ".join(str(k + 1) for k in np.flatnonzero(shape)) or "none"
     if expected is not None and count != expected:
-        raise BodyFileError(path, "DISP", f"{expected} rigid modes ({constraints})", f"{count} (modes {named}): a "
+        raise BodyFileError(path, field, f"{expected} rigid modes ({constraints})", f"{count} (modes {named}): a "
                             "rigid mode's shape or eigenvalue is damaged, or the run did not select those constraints")
     notes = [f"rigid modes (shapes spanned by rigid motions) dropped: {named} ({constraints})"]
     if count != N_RIGID:

@@ -100,3 +100,20 @@ def test_a_rigid_shape_with_a_frequency_is_refused(free_run):
     run.eigenvalues[0] = run.eigenvalues[6]
     with pytest.raises(BodyFileError, match=r"expected a zero frequency for a rigid-body shape, got mode 1"):
         ansys.body_of(job, run)
+
+
+def test_a_damaged_mode_number_in_the_files_solution_header_is_one_line_through_the_cli(job):  # noqa: F811
+    """Set 4's solution header says substep 3: word 7 of its record (2 words of record header, then pv3num,
+    nelm, nnod, mask, itime, iter), at the set's pointer of the result header."""
+    from typer.testing import CliRunner
+
+    from ffrf_advisor.cli import app
+
+    word = 4 * (int(reader.read_binary(str(job))._resultheader["rpointers"][3]) + 7)
+    data = bytearray(job.read_bytes())
+    assert int.from_bytes(data[word:word + 4], "little") == 4
+    data[word:word + 4] = (3).to_bytes(4, "little")
+    job.write_bytes(bytes(data))
+    result = CliRunner().invoke(app, ["info", str(job)])
+    assert result.exit_code == 2 and "solution headers (substeps: mode numbers)" in result.output
+    assert "1, 2, 3, 3, 5, 6" in result.output and len(result.output.strip().splitlines()) == 1

@@ -6,14 +6,16 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
 pytest.importorskip("pyNastran", reason="the Nastran reader's optional extra (pip install '.[nastran]')")
 
+from ffrf_advisor.cli import app  # noqa: E402
 from ffrf_advisor.errors import FFRFError  # noqa: E402
 from ffrf_advisor.fe.modal import rigid_modes  # noqa: E402
 from ffrf_advisor.io import nastran, nastran_checks, read_body  # noqa: E402
 
-from .test_nastran import SAMPLE, _write_op2  # noqa: E402
+from .test_nastran import BEAM, MULTI, SAMPLE, _write_op2, needs_data  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -133,3 +135,25 @@ def test_the_constraints_of_a_model_come_from_its_spc_suport_and_grid_ps():
     other = BDF(debug=None)
     other.add_grid(1, [0.0, 0.0, 0.0], ps="123")
     assert nastran_checks.constraints(other)[0] is None
+
+
+@needs_data
+@pytest.mark.parametrize("path", [BEAM, MULTI])
+def test_nastrans_own_files_have_consecutive_mode_ids_and_agreeing_eigenvalue_copies(path):
+    m = nastran._load(path)
+    table = next(iter(m.eigenvalues.values()))
+    assert table is not None and len(table.mode) == len(next(iter(m.eigenvectors.values())).modes)
+    nastran_checks.check_tables(path, next(iter(m.eigenvectors.values())), table)  # raises on a disagreement
+
+
+def test_a_damaged_mode_id_in_the_file_is_one_line_through_the_cli(op2):
+    """Mode 3's id written as 2 into the OP2's eigenvector table (pyNastran's writer keeps the ids given)."""
+    path, m = op2
+    ev = next(iter(m.eigenvectors.values()))
+    ev.modes = np.asarray(ev.modes).copy()
+    ev.modes[2] = 2
+    m.write_op2(str(path), post=-1, endian=b"<")
+    assert list(next(iter(nastran._load(path).eigenvectors.values())).modes[:4]) == [1, 2, 2, 4]
+    result = CliRunner().invoke(app, ["info", str(path)])
+    assert result.exit_code == 2 and "eigenvector mode ids" in result.output and "1, 2, 2, 4" in result.output
+    assert len(result.output.strip().splitlines()) == 1

@@ -72,6 +72,11 @@ def test_a_lama_table_agreeing_with_the_headers_reads_and_one_damaged_eigenvalue
     with pytest.raises(FFRFError, match=r"eigenvalue table \(LAMA\): expected sqrt\(lambda\) / \(2 pi\) of the "
                                         r"eigenvectors' headers.* for mode 10"):
         nastran._modes(path, m)
+    for column in ("radians", "cycles"):
+        m.eigenvalues["LAMA"] = _lama(ev)
+        getattr(m.eigenvalues["LAMA"], column)[12] *= 1.001  # the fourth digit changed: 1e-3, beyond the 1e-5 of 7 digits
+        with pytest.raises(FFRFError, match=rf"eigenvalue table \(LAMA\) {column.upper()}: .* for mode 13"):
+            nastran._modes(path, m)
     m.eigenvalues["LAMA"] = _lama(ev)
     m.eigenvalues["LAMA"].mode[3] = 3
     with pytest.raises(FFRFError, match=r"eigenvalue table \(LAMA\) mode ids"):

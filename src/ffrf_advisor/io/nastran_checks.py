@@ -22,8 +22,8 @@ OP2_DIGITS = 7  # the OP2 holds eigenvalues in float32 (24-bit mantissa: 7 signi
 
 def check_tables(path, ev, table) -> None:
     """Mode ids of the eigenvectors (and of the LAMA table, if there is one) count 1, 2, 3 ...; the eigenvalues
-    of the vectors' headers and the LAMA table agree to float32 (compared as f = sqrt(|lambda|) / 2 pi, a rigid
-    mode's round-off of either sign)."""
+    of the vectors' headers and the LAMA table, and the LAMA's RADIANS / 2 pi and CYCLES, agree to float32
+    (compared as f = sqrt(|lambda|) / 2 pi: a rigid mode's round-off has either sign)."""
     check_mode_numbers(path, "eigenvector mode ids", np.asarray(ev.modes).ravel(), first=1)
     if table is None:
         return
@@ -31,6 +31,9 @@ def check_tables(path, ev, table) -> None:
     lama = np.abs(np.asarray(table.eigenvalues, float))
     check_frequencies(path, ("eigenvalue table (LAMA)", "the eigenvectors' headers"),
                       np.sqrt(lama) / (2 * np.pi), np.abs(np.asarray(ev.eigns, float)), OP2_DIGITS)
+    for column, f in (("RADIANS", np.asarray(table.radians, float) / (2 * np.pi)),
+                      ("CYCLES", np.asarray(table.cycles, float))):  # Nastran's of sqrt(|lambda|), as its own files
+        check_frequencies(path, (f"eigenvalue table (LAMA) {column}", "its EIGENVALUE column"), f, lama, OP2_DIGITS)
 
 
 def constraints(m) -> tuple[int | None, str]:

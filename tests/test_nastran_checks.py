@@ -74,7 +74,7 @@ def test_a_lama_table_agreeing_with_the_headers_reads_and_one_damaged_eigenvalue
         nastran._modes(path, m)
     for column in ("radians", "cycles"):
         m.eigenvalues["LAMA"] = _lama(ev)
-        getattr(m.eigenvalues["LAMA"], column)[12] *= 1.001  # the fourth digit changed: 1e-3, beyond the 1e-5 of 7 digits
+        getattr(m.eigenvalues["LAMA"], column)[12] *= 1.001  # 4th digit: 1e-3, beyond 7 digits (1e-5)
         with pytest.raises(FFRFError, match=rf"eigenvalue table \(LAMA\) {column.upper()}: .* for mode 13"):
             nastran._modes(path, m)
     m.eigenvalues["LAMA"] = _lama(ev)

@@ -9,7 +9,8 @@ sums) and stiffness K from the .full. Units from /UNITS, a ``units`` option or t
 materials (``ansys_units``). K is the free body's when the .full's is free; a .full written with
 constraints lacks their couplings, and then the elements' own stiffness is used where it reproduces the
 .full's on every other DOF (``ansys_fe``). Modes that are eigenvectors of the free body are taken as they
-are (rigid modes, told by their shapes, dropped by name); others are brought to free-free form (theory 4), which needs the free K.
+are (rigid modes, told by their shapes, dropped by name); others are brought to free-free form (theory 4),
+which needs the free K.
 """
 from __future__ import annotations
 

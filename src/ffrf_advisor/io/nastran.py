@@ -7,7 +7,8 @@ it. Eigenvalues and generalised masses from the eigenvalue table; modes scaled b
 checked against the 6-DOF nodal mass (theory 3b): the nodal form of MAAX punched beside the OP2
 (``nastran_dmig``), else the mass assembled from the elements (``nastran_mass``). The run must be
 free-free (six rigid-body modes, told by their shapes and dropped by name: ``nastran_checks``), or come with the
-free body's MAAX and KAAX: then it is brought to free-free form (theory 4). Stresses: von Mises averaged at the grids (``nastran_stress``).
+free body's MAAX and KAAX: then it is brought to free-free form (theory 4). Stresses: von Mises averaged at
+the grids (``nastran_stress``).
 """
 from __future__ import annotations
 

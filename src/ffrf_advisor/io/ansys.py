@@ -26,7 +26,7 @@ from ..fe.modal import N_RIGID, mode_signs, rigid_modes
 from ..fe_body import fe_body, mass_normalised_file_modes, with_centrifugal_response
 from ..transform import free_surface_ritz
 from . import ansys_files, guard
-from .nastran_checks import rigid_modes_of
+from .rigid_modes import rigid_modes_of
 from .ansys_fe import free_stiffness, mass_agreement, material_of, nodal_von_mises, scalar_mass
 from .ansys_files import AnsysRun
 from .ansys_units import UnitChoice, choose
@@ -85,7 +85,7 @@ def body_of(path, run: AnsysRun, units: str | None = None) -> FlexibleBody:
 
 
 def _rigid(run: AnsysRun) -> tuple[np.ndarray, list[str]]:
-    """The run's rigid modes by their shapes (nastran_checks.rigid_modes_of): six for a run whose .full holds no
+    """The run's rigid modes by their shapes (io.rigid_modes): six for a run whose .full holds no
     D constraint, any count (warned when not six) for one that does."""
     held = int(run.constrained.sum())
     where = (f"{held} DOFs held by D in {os.path.basename(run.full)}" if held else

@@ -13,16 +13,13 @@ import numpy as np
 
 from ..consistency import check_frequencies, check_mode_numbers
 from ..errors import BodyFileError
-from ..fe.modal import N_RIGID, rigid_modes
+from ..fe.modal import N_RIGID
 from .calculix_deck import text_lines
+from .rigid_modes import rigid_modes_of
 
 TITLE = "E I G E N V A L U E   O U T P U T"
 DAT_DIGITS = 7  # E14.7 columns of the .dat
 FRD_DIGITS = 6  # the .frd header prints f with at least 6 significant digits (E12.5, or more for f >= 1000)
-# A rigid mode's part outside the rigid motions is the print round-off of its components (measured 1.3e-6 at
-# 6 digits, 2.6e-8 in a binary .frd's float32); a flexible mode's is of order one (0.94-1.0 on a beam): the
-# threshold sits between them with three decades either side.
-RIGID_SHAPE = 1e-3
 ZERO = 1e-6  # |lambda| / largest |lambda| below which a frequency is zero to a 7-digit print of the largest
 
 
@@ -100,32 +97,7 @@ def _ascending(path, lam: np.ndarray, modes: list[int]) -> np.ndarray:
 
 def rigid_by_shape(points: np.ndarray, Phi: np.ndarray, lam: np.ndarray, modes: list[int], path,
                    free: bool = False) -> tuple:
-    """Modes to drop (mask) and notes. A mode is rigid when its shape lies in the span of the six rigid motions
-    of the nodes (theory 4: part outside below RIGID_SHAPE), never by its eigenvalue alone; a rigid shape with a
-    frequency that is not zero and a zero frequency of a shape that is not rigid (a mechanism) are errors; a count
-    of rigid modes other than six is an error for a ``free`` run (its deck holds no support), else a warning
-    naming them."""
-    R = rigid_modes((points - points.mean(axis=0)) / max(float(np.ptp(points, axis=0).max()), 1e-300))
-    S = Phi.reshape(-1, Phi.shape[2])
-    coef, *_ = np.linalg.lstsq(R, S, rcond=None)
-    outside = np.linalg.norm(S - R @ coef, axis=0) / np.maximum(np.linalg.norm(S, axis=0), 1e-300)
-    rigid, zero = outside < RIGID_SHAPE, np.abs(lam) < ZERO * np.abs(lam).max()
-    if np.any(rigid & ~zero):
-        k = int(np.argmax(rigid & ~zero))
-        raise BodyFileError(path, "DISP", f"mode {modes[k]} with a rigid-body shape to have a zero frequency",
-                            f"eigenvalue {lam[k]:.7g} (the shape or the eigenvalue is damaged)")
-    named = ", ".join(str(modes[k]) for k in np.flatnonzero(rigid)) or "none"
-    notes = [f"rigid modes (shapes spanned by rigid motions) dropped: {named}"]
-    if rigid.sum() != N_RIGID and free:
-        raise BodyFileError(path, "DISP", "six rigid modes of a free body (the deck holds no *BOUNDARY nor spring)",
-                            f"{int(rigid.sum())} (modes {named}): a rigid mode's shape or frequency is damaged, or the "
-                            "elements give a rigid motion stiffness")
-    if rigid.sum() != N_RIGID:
-        notes.append(f"warning: {int(rigid.sum())} rigid modes instead of six (modes {named}): the body is "
-                     + ("constrained" if rigid.sum() < N_RIGID else "not connected (a mechanism)"))
-    mechanism = np.flatnonzero(zero & ~rigid)
-    if mechanism.size:
-        raise BodyFileError(path, "DISP", "modes at zero frequency to be rigid motions of the whole body",
-                            f"modes {', '.join(str(modes[k]) for k in mechanism)} with zero frequency and shapes that "
-                            "are not (a mechanism: parts not connected; or a damaged frequency)")
-    return rigid, notes
+    """Modes to drop (mask) and notes (io.rigid_modes): six rigid modes for a ``free`` run (its deck holds no
+    support), any count with a warning otherwise."""
+    support = "the deck holds no *BOUNDARY, spring, dashpot nor gap: a free body" if free else "the deck's supports"
+    return rigid_modes_of(path, points, Phi, lam, N_RIGID if free else None, support, "DISP", modes)
